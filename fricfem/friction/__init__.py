@@ -1,0 +1,19 @@
+"""Friction laws: one module each, the same contract (see :mod:`.base`), a registry by name."""
+
+from .base import Law, Param, defaults, pack, param_names, validate
+from . import povirk_needleman, slip_weakening, stuck
+
+LAWS = {law.name: law for law in (povirk_needleman.LAW, slip_weakening.LAW, stuck.LAW)}
+
+
+def get_law(name: str) -> Law:
+    """The registered law called ``name``; a clear error lists the known ones."""
+    try:
+        return LAWS[name]
+    except KeyError:
+        raise ValueError(
+            f"friction.law = {name!r}: unknown friction law; allowed: {', '.join(sorted(LAWS))}"
+        ) from None
+
+
+__all__ = ["Law", "Param", "LAWS", "get_law", "defaults", "pack", "param_names", "validate"]

@@ -1,0 +1,147 @@
+"""The contract every friction law fulfils, and parameter validation.
+
+A law is a :class:`Law` record: its parameters (with units and allowed ranges),
+the names of its state variables, and numba-compiled point functions.  The
+interface kernel is specialised per law by receiving ``law.advance`` (a numba
+dispatcher), so there is no per-point dispatch on the law's kind.
+
+``advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt) -> (Ts1, slip_rate, dslip, dwork, nsub)``
+    Integrate one interface point over one bulk step ``dt`` [s].
+
+    p     float64[n_params]  the point's parameters, packed in ``law.params`` order
+    s     float64[n_state]   state at the start of the step; updated in place
+    Ts    shear traction at the start of the step [Pa] (signed)
+    Tn0, Tn1  normal traction at the start / end of the step [Pa], compression
+          positive, both >= 0 (an open interface never reaches the law); the law
+          may take it linear in time between them
+    vs    tangential jump rate d(Δu_s)/dt over the step [m/s], constant in the step
+    Cs    elastic shear stiffness of the interface [Pa/m]
+    dt    the step [s]
+
+    Returns the shear traction at the end of the step [Pa], the slip rate
+    Δu̇_slip at the end of the step [m/s] (>= 0, in the direction of sgn(Ts)),
+    the frictional slip accumulated over the step [m] (>= 0), the frictional
+    work dissipated over the step per unit interface area [J/m²] (>= 0), and the
+    number of local sub-steps used (1 when none were needed).
+
+``steady_mu(p, v) -> μ_ss``: the steady-state friction coefficient at slip rate
+``v`` [m/s] (numba function).
+
+``initial_state(p, Tn0, Ts0) -> float64[n_state]``: state at t = 0 for the
+initial normal / shear tractions [Pa] (plain Python, called once per point).
+
+``slide(p, s, v, Tn0, Tn1, dt) -> |T_s|`` (optional): advance the state ``s``
+in place over ``dt`` at the imposed slip rate ``v`` [m/s], without interface
+elasticity, and return the frictional strength [Pa] at the end of the step;
+used by the point driver (:mod:`.driver`) to trace the law's response.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, NamedTuple
+
+import numba
+import numpy as np
+from numba import types
+
+
+# numba types of the contract's functions, for code compiled once for any law
+# (a law's dispatcher converts to these function types when passed in).
+_f8 = types.float64
+_vec = types.float64[::1]
+ADVANCE_TYPE = types.FunctionType(
+    types.Tuple((_f8, _f8, _f8, _f8, types.int64))(_vec, _vec, _f8, _f8, _f8, _f8, _f8, _f8)
+)
+SLIDE_TYPE = types.FunctionType(_f8(_vec, _vec, _f8, _f8, _f8, _f8))
+
+
+class Param(NamedTuple):
+    """One law parameter: name, default, unit, allowed closed range, meaning."""
+
+    name: str
+    default: float
+    unit: str  # "" for a dimensionless parameter
+    low: float
+    high: float
+    doc: str
+
+
+class Law(NamedTuple):
+    """A friction law: parameters, state names and its numba point functions."""
+
+    name: str
+    doc: str
+    params: tuple  # tuple[Param, ...]
+    state: tuple  # tuple[str, ...] state-variable names, in storage order
+    advance: Callable  # numba dispatcher, see module docstring
+    steady_mu: Callable  # numba dispatcher (p, v) -> mu_ss
+    initial_state: Callable  # python (p, Tn0, Ts0) -> ndarray
+    slide: Callable = None  # numba dispatcher (p, s, v, Tn0, Tn1, dt) -> |T_s|, optional
+
+
+def param_names(law: Law) -> tuple:
+    return tuple(p.name for p in law.params)
+
+
+def defaults(law: Law) -> dict:
+    """The law's default parameters as a dict."""
+    return {p.name: p.default for p in law.params}
+
+
+def validate(law: Law, values: dict, where: str = "friction") -> dict:
+    """Return a complete, checked parameter dict (defaults filled in).
+
+    Raises ``ValueError`` naming the key (prefixed by ``where``), the value, its
+    unit and the allowed range for any unknown key, non-number or value out of
+    range.
+    """
+    known = {p.name: p for p in law.params}
+    for key in values:
+        if key not in known:
+            raise ValueError(
+                f"{where}.{key}: unknown parameter for friction law "
+                f"'{law.name}'; allowed: {', '.join(known)}"
+            )
+    out = {}
+    for p in law.params:
+        v = values.get(p.name, p.default)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ValueError(
+                f"{where}.{p.name}: expected a number [{p.unit or 'dimensionless'}], got {v!r}"
+            )
+        v = float(v)
+        unit = f" {p.unit}" if p.unit else ""
+        if not math.isfinite(v) or v < p.low or v > p.high:
+            raise ValueError(
+                f"{where}.{p.name} = {v:g}{unit}: must lie in "
+                f"[{p.low:g}, {p.high:g}]{unit} ({p.doc})"
+            )
+        out[p.name] = v
+    return out
+
+
+def pack(law: Law, values: dict) -> np.ndarray:
+    """Pack a validated parameter dict into the float64 array ``advance`` reads."""
+    return np.array([float(values[p.name]) for p in law.params], dtype=np.float64)
+
+
+@numba.njit(cache=True)
+def sign(x):
+    """sgn(x) with sgn(0) = +1 (a zero traction slips, if at all, forwards)."""
+    return -1.0 if x < 0.0 else 1.0
+
+
+@numba.njit(cache=True)
+def frictional_work(Ts0, Ts1, dslip):
+    """Work [J/m²] dissipated by the slip ``dslip`` >= 0 [m] of a (sub-)step
+    from traction Ts0 to Ts1 [Pa].
+
+    The mean traction times the slip, which balances the interface's elastic
+    energy T_s²/(2 C_s) exactly for the updates used here; if the traction
+    changed sign within the step it passed through zero where nothing slips,
+    and the slip is charged at the end traction instead (keeps the work >= 0).
+    """
+    if Ts0 * Ts1 >= 0.0:
+        return 0.5 * (abs(Ts0) + abs(Ts1)) * dslip
+    return abs(Ts1) * dslip

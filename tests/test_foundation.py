@@ -1,0 +1,191 @@
+"""Bulk + elastic interface physics: wave speed, energy balance, symmetry, 1 vs 2 ranks, meshes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from fricfem import friction, mesh, solver
+from fricfem.loading import ImpactPulse
+from fricfem.material import Material
+from fricfem.probe import NodeProbe
+
+STUCK = friction.get_law("stuck")
+CN, CS = 3e11, 1e11  # Pa/m (SPEC §3: 0.3 and 0.1 MPa/µm)
+
+_MESHES: dict = {}
+
+
+def plates(name: str, comm):
+    """Build (once per communicator kind) a preset mesh."""
+    key = (name, comm.size)
+    if key not in _MESHES:
+        _MESHES[key] = mesh.build(mesh.preset(name), comm)
+    return _MESHES[key]
+
+
+def stuck_model(pm, v_imp=5.0, sigma0=10e6, impact=("impact_lower",), t_rise=10e-6, dt=None):
+    return solver.build(pm, Material(), ImpactPulse(v_imp=v_imp, t_rise=t_rise), STUCK, np.zeros(0),
+                        sigma0, CN, CS, impact_tags=impact, dt=dt)
+
+
+def run(model, t_end, energy_every=0, each=None):
+    state = solver.State(model)
+    last = None
+    for st, e in solver.evolve(model, state, t_end, energy_every):
+        if e:
+            last = e
+        if each is not None:
+            each(st)
+    return state, last
+
+
+def test_longitudinal_front_travels_at_cl(comm):
+    """The first arrival (|v1| > 1 % of V_imp) along x2 = −12.5 mm, the middle of
+    the struck segment, moves at c_l (plane stress) within 2 %."""
+    pm = plates("reference", comm)
+    model = stuck_model(pm, t_rise=2e-6)
+    xs = np.array([10e-3, 20e-3, 30e-3, 40e-3])
+    probe = NodeProbe(model.V, np.column_stack([xs, np.full_like(xs, -12.5e-3)]))
+    arrival = np.full(len(xs), np.nan)
+
+    def watch(st):
+        v1 = np.abs(probe.values(st.v, 0))
+        hit = np.isnan(arrival) & (v1 > 0.01 * 5.0)
+        arrival[hit] = st.t - 0.5 * model.dt  # v is at the half step
+
+    run(model, 25e-6, each=watch)
+    assert not np.isnan(arrival).any()
+    speed = np.polyfit(arrival, xs, 1)[0]
+    c_l = Material().c_l
+    assert abs(speed / c_l - 1.0) < 0.02, (speed, c_l, arrival)
+
+
+def test_energy_balance_with_stuck_interface(comm):
+    """Kinetic + strain + interface-elastic energy = work of the struck edge (< 1 %)."""
+    pm = plates("coarse", comm)
+    model = stuck_model(pm, v_imp=5.0)
+    _, e = run(model, 60e-6, energy_every=50)
+    assert e["external"] > 0
+    stored = e["kinetic"] + e["strain"] + e["interface_elastic"]
+    assert abs(stored - e["external"]) < 0.01 * e["external"], e
+    # for a stuck interface the interface work is all elastic
+    assert abs(e["interface_work"] - e["interface_elastic"]) < 1e-3 * e["external"]
+    assert e["dissipated"] == 0.0
+
+
+def test_symmetric_loading_no_shear_jump(comm):
+    """Both plates struck alike: the mirror-symmetric mesh keeps Δu_s at round-off."""
+    pm = plates("coarse", comm)
+    model = stuck_model(pm, v_imp=5.0, impact=("impact_lower", "impact_upper"))
+    state, _ = run(model, 30e-6)
+    p = model.interface.points
+    js = comm.allreduce(float(np.abs(p.jump_s).max(initial=0.0)), op=MPI.MAX)
+    umax = comm.allreduce(float(np.abs(state.u.array_r).max()), op=MPI.MAX)
+    assert umax > 1e-6
+    assert js <= 1e-12 * umax, (js, umax)
+
+
+def _fields(model, state, pm):
+    """(keys, values) of every owned node: key = (x1, x2, plate), value = (u1, u2, v1, v2)."""
+    from dolfinx import fem
+
+    V = model.V
+    n = V.dofmap.index_map.size_local
+    upper_cells = pm.cell_tags.indices[pm.cell_tags.values == mesh.TAGS["upper"]]
+    upper = fem.locate_dofs_topological(V, 2, upper_cells)
+    plate = np.zeros(n)
+    plate[upper[upper < n]] = 1.0
+    x = V.tabulate_dof_coordinates()[:n, :2]
+    keys = np.column_stack([x, plate])
+    vals = np.column_stack([state.u.array_r.reshape(-1, 2), state.v.array_r.reshape(-1, 2)])
+    return keys, vals
+
+
+def _sorted_global(comm, keys, vals):
+    keys = np.vstack(comm.allgather(keys))
+    vals = np.vstack(comm.allgather(vals))
+    order = np.lexsort((np.round(keys[:, 1], 12), np.round(keys[:, 0], 12), keys[:, 2]))
+    return keys[order], vals[order]
+
+
+def test_one_rank_equals_two_ranks(comm):
+    """The same run on COMM_SELF and on COMM_WORLD gives the same fields (≤ 1e-10)."""
+    runs = {}
+    for name, c in (("self", MPI.COMM_SELF), ("world", comm)):
+        pm = plates("coarse", c)
+        model = stuck_model(pm, v_imp=5.0)
+        state, _ = run(model, 30e-6)
+        keys, vals = _sorted_global(c, *_fields(model, state, pm))
+        p = model.interface.points
+        x1 = np.concatenate(c.allgather(model.interface.geometry.x1))
+        ts = np.concatenate(c.allgather(p.Ts))[np.argsort(x1, kind="stable")]
+        runs[name] = (model.dt, keys, vals, ts)
+    dt1, k1, v1, t1 = runs["self"]
+    dt2, k2, v2, t2 = runs["world"]
+    assert dt1 == dt2
+    assert np.array_equal(k1, k2)
+    assert np.abs(v1 - v2).max() <= 1e-10 * np.abs(v1).max()
+    assert np.abs(t1 - t2).max() <= 1e-10 * np.abs(t1).max()
+
+
+def _tag_lengths(pm):
+    msh = pm.mesh
+    comm = msh.comm
+    ft = pm.facet_tags
+    n_owned = msh.topology.index_map(1).size_local
+    f2v = msh.topology.connectivity(1, 0)
+    x = msh.geometry.x
+    out = {}
+    for name in ("interface_lower", "interface_upper", "impact_lower", "impact_upper", "outer"):
+        facets = ft.indices[(ft.values == mesh.TAGS[name]) & (ft.indices < n_owned)]
+        length = sum(np.linalg.norm(x[f2v.links(f)[0]] - x[f2v.links(f)[1]]) for f in facets)
+        out[name] = comm.allreduce(length, op=MPI.SUM)
+    return out
+
+
+def test_mesh_presets_and_tags(comm):
+    """Documented preset sizes; tags cover exactly the intended edges."""
+    pm = plates("reference", comm)
+    msh = pm.mesh
+    msh.topology.create_connectivity(1, 0)
+    info = mesh.info(pm)
+    assert info["cells"] == 4 * 17784
+    assert info["interface_facets"] == 228
+    assert info["dofs"] == 72208
+    assert abs(info["min_altitude_m"] - 0.1e-3) < 1e-12
+    L = _tag_lengths(pm)
+    spec = pm.spec
+    assert L["interface_lower"] == pytest.approx(spec.length, rel=1e-12)
+    assert L["interface_upper"] == pytest.approx(spec.length, rel=1e-12)
+    assert L["impact_lower"] == pytest.approx(0.025, rel=1e-12)
+    assert L["impact_upper"] == pytest.approx(0.025, rel=1e-12)
+    perimeter = 2 * 2 * (spec.length + spec.height)
+    assert L["outer"] == pytest.approx(perimeter - 2 * spec.length - 2 * 0.025, rel=1e-12)
+    # the fine region is uniform 0.30 × 0.20 mm and the other presets have their sizes
+    x = mesh.axis_nodes(spec.length, (0.0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
+    assert np.allclose(np.diff(x[x <= 0.060 + 1e-12]), 0.3e-3)
+    sizes = {"coarse": 1200, "reference": 17784, "half": 33696, "fine": 90396}
+    for name, quads in sizes.items():
+        assert mesh.preset(name).estimate_quads() == quads
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (dict(dx=-1.0), "mesh.dx"),
+        (dict(fine_x1=0.2), "mesh.fine_x0"),
+        (dict(fine_height=0.1), "mesh.fine_height"),
+        (dict(impact_b=0.08), "mesh.impact_b"),
+        (dict(grading=3.0), "mesh.grading"),
+        (dict(max_size=1e-5), "mesh.max_size"),
+        (dict(dx=1e-6, dy=1e-6), "at most 5e6"),
+    ],
+)
+def test_bad_mesh_spec_is_named(change, message):
+    spec = dataclasses.replace(mesh.MeshSpec(), **change)
+    with pytest.raises(ValueError, match=message.replace(".", r"\.")):
+        spec.check()
