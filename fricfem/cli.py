@@ -41,6 +41,43 @@ def _mesh(args) -> int:
     return 0
 
 
+def _scenes(args) -> int:
+    from . import config
+
+    for name, path in config.shipped().items():
+        scene = config.load(name)
+        print(f"{name:12s} {scene.description}")
+    return 0
+
+
+def _run(args) -> int:
+    from mpi4py import MPI
+
+    from . import run
+
+    summary = run.resolve_and_run(args.scene, args.set, args.out, args.overwrite, args.quiet)
+    if MPI.COMM_WORLD.rank == 0:
+        mode = (summary.get("mode") or {}).get("label", "-")
+        ini = summary.get("initiation")
+        where = "no sliding" if not ini else f"sliding from t = {ini['time_s'] * 1e6:.2f} µs at x1 = {ini['x1_m'] * 1e3:.2f} mm"
+        w = summary["wall_s"]
+        print(f"{summary['scene']}: {summary['steps']} steps of {summary['dt_s'] * 1e9:.1f} ns on {summary['ranks']} "
+              f"rank(s), {summary['dofs']} dofs; {where}; mode: {mode}; wall {w['total']:.1f} s "
+              f"(setup {w['setup']:.1f}, loop {w['time_loop']:.1f}, output {w['output']:.1f})", file=sys.stderr)
+    return 0 if summary.get("complete") else 1
+
+
+def _plot(args) -> int:
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank != 0:
+        return 0
+    from . import runplots
+
+    return runplots.main([args.rundir] + (["--times", args.times] if args.times else [])
+                         + (["--out", args.out] if args.out else []))
+
+
 def main(argv=None) -> int:
     logging.getLogger().setLevel(logging.WARNING)  # keep ffcx's compiler chatter quiet
     parser = argparse.ArgumentParser(prog="fricfem", description=__doc__.splitlines()[0])
@@ -52,6 +89,21 @@ def main(argv=None) -> int:
     p.add_argument("--info", action="store_true", help="print JSON with cells, dofs, interface_facets, min_altitude_m")
     p.add_argument("--write", metavar="FILE.msh", help="also write the gmsh model")
     p.set_defaults(func=_mesh)
+    p = sub.add_parser("scenes", help="list the shipped scenes")
+    p.set_defaults(func=_scenes)
+    p = sub.add_parser("run", help="run a scene (shipped name or .toml file); works under mpirun")
+    p.add_argument("scene", help="shipped scene name (see `fricfem scenes`) or path to a .toml file")
+    p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                   help="override a scene key, e.g. --set loading.v_imp=10 (repeatable)")
+    p.add_argument("--out", help="run directory (default runs/<scene>)")
+    p.add_argument("--overwrite", action="store_true", help="replace the run in a non-empty --out")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_run)
+    p = sub.add_parser("plot", help="figures of a run directory")
+    p.add_argument("rundir")
+    p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
+    p.add_argument("--out", help="figure directory (default RUNDIR/figures)")
+    p.set_defaults(func=_plot)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -31,6 +31,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .friction.base import ADVANCE_TYPE
 from .mesh import TAGS
 
 #: Gauss–Legendre points and weights on [-1, 1], 4 points.
@@ -140,6 +141,7 @@ class Points(NamedTuple):
     params        float64[n, n_params]  friction-law parameters
     state         float64[n, n_state]   friction-law state
     Tn, Ts        current tractions [Pa]
+    dTs           change of T_s over the last step, Ṫ_s dt [Pa]
     jump_n, jump_s  current jumps Δu_n, Δu_s [m]
     rate_n, rate_s  jump rates over the last step [m/s]
     slip          accumulated frictional slip Δu_slip [m]
@@ -158,6 +160,7 @@ class Points(NamedTuple):
     state: np.ndarray
     Tn: np.ndarray
     Ts: np.ndarray
+    dTs: np.ndarray
     jump_n: np.ndarray
     jump_s: np.ndarray
     rate_n: np.ndarray
@@ -175,20 +178,31 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
     ``Tn0``, ``Ts0``, ``Cn``, ``Cs`` scalars or float64[n]."""
     full = lambda v: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()  # noqa: E731
     Tn0, Ts0, Cn, Cs = full(Tn0), full(Ts0), full(Cn), full(Cs)
-    params = np.ascontiguousarray(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64)
+    params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
     state = np.zeros((n, len(law.state)))
     for q in range(n):  # once, at set-up
         state[q] = law.initial_state(params[q], Tn0[q], Ts0[q])
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
-        Tn0, Ts0, Cn, Cs, params, state, Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(),
+        Tn0, Ts0, Cn, Cs, params, state, Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
 
 
-@numba.njit(cache=True)
+_f8v = numba.types.float64[::1]
+_f8m = numba.types.float64[:, ::1]
+_KERNEL_SIGNATURE = numba.types.void(
+    ADVANCE_TYPE, _f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8m, _f8m,
+    _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, numba.types.int8[::1],
+    numba.types.int32[::1], numba.types.float64,
+)
+
+
+# Compiled once for every law (the law's ``advance`` is passed as a first-class
+# function of type ADVANCE_TYPE), so the on-disk cache holds one entry.
+@numba.njit(_KERNEL_SIGNATURE, cache=True)
 def interface_kernel(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, params, state,
-                     Tn, Ts, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub, dt):
+                     Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub, dt):
     """One bulk step of every interface point on this rank.
 
     ``w`` holds the gathered displacements at the end of the step; the jumps at
@@ -233,6 +247,7 @@ def interface_kernel(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs,
                 - (0.5 * (tn_old + tn_new) - p_Tn0[q]) * (dun - jn[q])
             Tn[q] = tn_new
             Ts[q] = ts_new
+            dTs[q] = ts_new - ts_old
             jn[q] = dun
             js[q] = dus
             rn[q] = vn
@@ -250,7 +265,7 @@ def interface_kernel(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs,
             fw[ub + 1] += nb * fy
 
 
-@numba.njit(cache=True)
+@numba.njit(numba.types.void(_f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v), cache=True)
 def spring_kernel(w, fw, seg_w, shape, wq, Cn, Cs):
     """``fw = K_int w`` for the linear interface springs (stability estimate)."""
     fw[:] = 0.0
@@ -284,7 +299,7 @@ class Interface:
     def _gather(self, u: PETSc.Vec) -> np.ndarray:
         g = self.geometry
         g.scatter.scatter(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
-        return g.work.array_r
+        return g.work.array
 
     def _add_back(self, f: PETSc.Vec) -> None:
         g = self.geometry
@@ -296,7 +311,7 @@ class Interface:
         g, p = self.geometry, self.points
         w = self._gather(u)
         interface_kernel(self.law.advance, w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0,
-                         p.Cn, p.Cs, p.params, p.state, p.Tn, p.Ts, p.jump_n, p.jump_s, p.rate_n,
+                         p.Cn, p.Cs, p.params, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n,
                          p.rate_s, p.slip, p.slip_rate, p.work, p.dissipated, p.is_open, p.nsub, dt)
         self._add_back(f)
 

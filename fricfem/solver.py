@@ -160,7 +160,7 @@ def _per_point(value, x1, width=None):
     v = value(x1) if callable(value) else value
     v = np.asarray(v, dtype=np.float64)
     shape = (len(x1),) if width is None else (len(x1), width)
-    return np.ascontiguousarray(np.broadcast_to(v, shape))
+    return np.array(np.broadcast_to(v, shape), dtype=np.float64, order="C")  # a writable copy
 
 
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,

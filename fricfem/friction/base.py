@@ -15,7 +15,7 @@ dispatcher), so there is no per-point dispatch on the law's kind.
           positive, both >= 0 (an open interface never reaches the law); the law
           may take it linear in time between them
     vs    tangential jump rate d(Δu_s)/dt over the step [m/s], constant in the step
-    Cs    elastic shear stiffness of the interface [Pa/m]
+    Cs    elastic shear stiffness of the interface [Pa/m], > 0
     dt    the step [s]
 
     Returns the shear traction at the end of the step [Pa], the slip rate
@@ -34,6 +34,10 @@ initial normal / shear tractions [Pa] (plain Python, called once per point).
 in place over ``dt`` at the imposed slip rate ``v`` [m/s], without interface
 elasticity, and return the frictional strength [Pa] at the end of the step;
 used by the point driver (:mod:`.driver`) to trace the law's response.
+
+``ADVANCE_TYPE`` and ``SLIDE_TYPE`` are the numba function types of ``advance``
+and ``slide``: a numba function declared with them is compiled (and cached)
+once for all laws, which pass their dispatcher in (see :mod:`.driver`).
 """
 
 from __future__ import annotations

@@ -51,7 +51,8 @@ def initial_state(p, Tn0, Ts0):
 @numba.njit(cache=True)
 def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
     """Return map over one step (contract in :mod:`.base`); one sub-step, exact
-    for the backward-Euler slip."""
+    for the backward-Euler slip.  The slip rate returned is the step's mean
+    dδ/dt (the law has no rate dependence)."""
     delta = s[0]
     Tt = Ts + Cs * vs * dt
     a = abs(Tt)
