@@ -167,9 +167,13 @@ def resolve(ref: str | Path, _seen=()) -> dict:
     if base:
         if not isinstance(base, str):
             raise SceneError(f"base = {base!r}: expected the name of a shipped scene or a .toml path")
-        bpath = base if base in shipped() or Path(base).is_absolute() else str(Path(path).parent / base)
         if base in shipped():
             bpath = base
+        elif base.endswith(".toml"):
+            bpath = base if Path(base).is_absolute() else str(Path(path).parent / base)
+        else:
+            raise SceneError(f"base = {base!r}: no such shipped scene or .toml file; shipped: "
+                             f"{', '.join(shipped())}")
         parent = resolve(bpath, _seen + (key,))
         raw = _merge(parent, {k: v for k, v in raw.items() if k != "base"})
         raw.pop("base", None)
