@@ -74,6 +74,7 @@ SCHEMA = {
         "t_hold_end": Field(NUM, 60e-6, "s", 0.0, 1.0, "end of the plateau t_p", open_low=True),
         "t_fall": Field(NUM, 10e-6, "s", 0.0, 1.0, "step-down time t_s", open_low=True),
         "symmetric": Field(bool, False, doc="strike both plates (|x2| <= b)"),
+        "direction": Field(str, "push", doc="'push' (edge moves into the specimen) or 'pull'"),
     },
     "interface": {
         "Cn": Field(NUM, 3e11, "Pa/m", 0.0, None, "normal stiffness C_n", open_low=True),
@@ -296,7 +297,8 @@ def validate(raw: dict) -> Scene:
         raise SceneError(str(err)) from None
 
     ld = sec["loading"]
-    pulse = ImpactPulse(float(ld["v_imp"]), float(ld["t_rise"]), float(ld["t_hold_end"]), float(ld["t_fall"]))
+    pulse = ImpactPulse(float(ld["v_imp"]), float(ld["t_rise"]), float(ld["t_hold_end"]), float(ld["t_fall"]),
+                        ld["direction"])
     try:
         pulse.check()
     except ValueError as err:

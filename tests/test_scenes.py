@@ -39,6 +39,7 @@ BAD = [
     ("[material]\nrho = -1230.0", "material.rho = -1230.0 kg/m^3: must lie in (0, inf)"),
     ("[material]\nnu = 0.5", "material.nu = 0.5 : must lie in (-1, 0.5)"),
     ("[material]\nplane = 'shell'", "material.plane = 'shell': allowed 'stress' or 'strain'"),
+    ("[loading]\ndirection = 'sideways'", "loading.direction = 'sideways': allowed 'push' or 'pull'"),
     ("[time]\ndt_safety = 1.0", "time.dt_safety = 1.0 : must lie in (0, 1)"),
     ("[time]\nend = 0.0", "time.end = 0.0 s: must lie in (0, 1]"),
     ("[mesh]\nfine_x1 = 0.2", "the fine region must satisfy 0 <= fine_x0 < fine_x1 <= length"),
