@@ -78,9 +78,16 @@ def _plot(args) -> int:
                          + (["--out", args.out] if args.out else []))
 
 
+def _sweep(argv) -> int:
+    from . import sweep
+
+    return sweep.main(argv)
+
+
 def main(argv=None) -> int:
     logging.getLogger().setLevel(logging.WARNING)  # keep ffcx's compiler chatter quiet
-    parser = argparse.ArgumentParser(prog="fricfem", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="fricfem", description="dynamic frictional sliding between two elastic plates struck at one edge")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("mesh", help="build a two-plate mesh; print its sizes as JSON")
     p.add_argument("--preset", default="reference", help="coarse, reference, half or fine")
@@ -104,6 +111,11 @@ def main(argv=None) -> int:
     p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
     p.add_argument("--out", help="figure directory (default RUNDIR/figures)")
     p.set_defaults(func=_plot)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "sweep":  # the sweep parses its own arguments
+        return _sweep(argv[1:])
+    sub.add_parser("sweep", help="run a Σ0 × V_imp grid of a scene and map the sliding modes "
+                                 "(see `fricfem sweep --help`)")
     args = parser.parse_args(argv)
     try:
         return args.func(args)
