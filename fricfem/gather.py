@@ -21,16 +21,3 @@ def interface_profile(interface, names=POINT_FIELDS) -> dict:
     for k, sname in enumerate(interface.law.state):
         out[sname] = np.concatenate(comm.allgather(np.ascontiguousarray(state[:, k])))[order]
     return out
-
-
-def cell_triangles(fn) -> tuple:
-    """(xy float64[n_cells, 3, 2], values float64[n_cells]) of a DG0 function, all
-    owned cells of all ranks (collective)."""
-    msh = fn.function_space.mesh
-    comm = msh.comm
-    n = msh.topology.index_map(2).size_local
-    cells = msh.geometry.dofmap.array.reshape(-1, 3)[:n]
-    xy = msh.geometry.x[cells][:, :, :2]
-    dofs = fn.function_space.dofmap.list.array.reshape(-1)[:n]
-    vals = fn.x.array[dofs]
-    return np.concatenate(comm.allgather(xy)), np.concatenate(comm.allgather(vals))

@@ -1,0 +1,307 @@
+"""``fricfem plot``: every figure of a (synthetic) run directory is drawn and not blank.
+
+The run directory is made here, following the layout ``fricfem run`` writes:
+a crack-like sliding front leaving the impact edge at 10 µs and running at
+2000 m/s (Case I-like magnitudes: Δu̇_slip 5–7 m/s, T_s ≈ −3.6…−3.9 MPa,
+T_n ≈ 6 MPa), healing behind x1 = 1200 m/s (t − 25 µs), one station at
+x1 = 16.1 mm, a summary.json, and a small real dolfinx ``fields.xdmf`` with
+σ1 − σ2 at 22 and 32 µs. Every rank works in its own directory (no
+collectives): the figures are drawn by both ranks independently.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from fricfem import runplots
+
+SIGMA0, V_IMP = 6e6, 2.0  # Pa, m/s
+C_L, C_S, C_R = 2187.0, 1255.0, 1155.0  # m/s
+V_RUPT, T_START = 2000.0, 10e-6  # m/s, s
+V_HEAL, T_HEAL = 1200.0, 25e-6
+C_SHEAR, DT = 1e11, 50e-9  # Pa/m, s
+STATION_X = 16.1e-3  # m
+FIELD_TIMES = (22e-6, 32e-6)  # s
+GARBAGE = 1e30  # fills rows past n_time: must never reach a figure
+
+
+def interface_state(x, t) -> dict:
+    """Synthetic interface quantities at x [m] (1-D) and t [s] (1-D): [n_t, n_x] arrays, SI."""
+    X, T = np.meshgrid(x, t)
+    tip = V_RUPT * (T - T_START)
+    heal = V_HEAL * (T - T_HEAL)
+    front = C_L * T
+    sliding = (X < tip) & (X > heal)
+    behind = np.clip(tip - X, 0.0, None)
+    rise = np.clip(behind / 0.5e-3, 0.0, 1.0)  # the slip rate rises over 0.5 mm at the tip
+    slip_rate = np.where(sliding, rise * (5.0 + 2.0 * np.exp(-behind / 3e-3)), 0.0)
+    ahead = np.clip((front - X) / np.maximum(front - np.maximum(tip, 0.0), 1e-6), 0.0, 1.0)
+    ts_mag = np.where(X < tip, 3.6e6 + 0.3e6 * np.exp(-behind / 2e-3), 3.9e6 * ahead)
+    ts_mag = np.where(X < heal, 3.75e6, ts_mag)
+    elastic = 0.5 * np.exp(-(((X - tip - 1e-3) / 2e-3) ** 2)) * (T > T_START)
+    tn = SIGMA0 + 0.39e6 * np.exp(-(((X - tip) / 3e-3) ** 2))
+    slip = np.cumsum(slip_rate, axis=0) * (t[1] - t[0] if len(t) > 1 else 0.0)
+    ts = -ts_mag  # Δu = u⁺ − u⁻: T_s < 0 under the paper's loading
+    return {
+        "slip_rate": slip_rate,
+        "jump_rate_s": -(slip_rate + elastic),
+        "shear_traction": ts,
+        "normal_traction": tn,
+        "shear_traction_increment": -C_SHEAR * elastic * DT,
+        "slip": slip,
+        "jump_s": -(slip + ts_mag / C_SHEAR),
+        "mu_app": ts / tn,
+        "open": np.zeros_like(X, dtype=np.int8),
+    }
+
+
+def write_interface(path: Path, n_time: int, n_alloc: int | None = None) -> np.ndarray:
+    """interface.h5 with ``n_time`` valid rows of ``n_alloc`` allocated; returns the times."""
+    n_alloc = n_alloc or n_time
+    edges = np.linspace(0.0, 0.137, 251)  # 250 interface elements, 4 Gauss points each
+    gp = np.array([-0.861136, -0.339981, 0.339981, 0.861136])
+    x1 = (0.5 * (edges[:-1, None] + edges[1:, None]) + 0.5 * np.diff(edges)[:, None] * gp).ravel()
+    t = np.linspace(0.4e-6, 40e-6, n_time)
+    q = interface_state(x1, t)
+    with h5py.File(path, "w") as f:
+        f.attrs.update({"scene": "case1-synthetic", "sigma0": SIGMA0, "v_imp": V_IMP,
+                        "c_l": C_L, "c_s": C_S, "c_R": C_R, "n_time": n_time})
+        f["x1"] = x1
+        ds = f.create_dataset("time", (n_alloc,), maxshape=(None,), dtype="f8")
+        ds[:n_time] = t
+        for name, a in q.items():
+            d = f.create_dataset(name, (n_alloc, len(x1)), maxshape=(None, len(x1)), dtype=a.dtype,
+                                 chunks=(1, len(x1)))
+            d[:n_time] = a
+            if n_alloc > n_time and a.dtype.kind == "f":
+                d[n_time:] = GARBAGE
+        for k, name in enumerate(("theta0", "theta1", "theta2")):
+            f[f"state/{name}"] = np.full((n_alloc, len(x1)), float(k))
+        ts = np.arange(0.0, t[-1], DT * 4)  # every (4th) time step
+        qs = interface_state(np.array([STATION_X]), ts)
+        g = f.create_group("stations/x16p1")
+        g.attrs.update({"x1": STATION_X, "n": len(ts)})
+        pad = 17 if n_alloc > n_time else 0  # a station half-written too
+        g.create_dataset("time", data=np.concatenate([ts, np.zeros(pad)]))
+        for name, a in qs.items():
+            fill = GARBAGE if a.dtype.kind == "f" else 0
+            g.create_dataset(name, data=np.concatenate([a[:, 0], np.full(pad, fill, dtype=a.dtype)]))
+    return t
+
+
+def write_summary(path: Path) -> None:
+    t = np.linspace(T_START + 0.4e-6, 40e-6, 60)
+    rng = np.random.default_rng(0)
+    heal_t = np.linspace(T_HEAL + 0.4e-6, 40e-6, 30)
+    summary = {
+        "tip": {"time_s": t.tolist(), "x1_m": (V_RUPT * (t - T_START)).tolist(),
+                "v_tip_m_s": (V_RUPT + 150 * rng.standard_normal(len(t))).tolist()},
+        "fronts": [
+            {"kind": "rupture", "t": t.tolist(), "x": (V_RUPT * (t - T_START)).tolist(),
+             "speed": [V_RUPT] * len(t)},
+            {"kind": "healing", "t": heal_t.tolist(), "x": (V_HEAL * (heal_t - T_HEAL)).tolist(),
+             "speed": [V_HEAL] * len(heal_t)},
+        ],
+        "mode": {"label": "crack-like", "evidence": {"stick_gaps": 0}},
+        "speeds": {"c_l": C_L, "c_s": C_S, "c_R": C_R, "sqrt2_c_s": np.sqrt(2) * C_S},
+    }
+    path.write_text(json.dumps(summary))
+
+
+def write_fields(path: Path) -> None:
+    """A small real dolfinx XDMF: P1 displacement/velocity, DG0 σ1 − σ2 [Pa] at FIELD_TIMES.
+
+    σ: the prestress S22 = −Σ0, a compressive loading wave behind x1 = c_l t
+    (stronger in the struck lower plate), a shear concentration at the tip and
+    a shear Mach front behind the lines x1 = tip − |x2| cot θ, sin θ = c_s/V.
+    """
+    from dolfinx import fem, mesh
+    from dolfinx.io import XDMFFile
+
+    msh = mesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, -0.075]), np.array([0.137, 0.075])],
+                                [110, 120])
+    V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+    W = fem.FunctionSpace(msh, ("DG", 0))
+    u = fem.Function(V, name="displacement")
+    v = fem.Function(V, name="velocity")
+    s = fem.Function(W, name="stress_difference")
+    cot = np.sqrt(1.0 - (C_S / V_RUPT) ** 2) / (C_S / V_RUPT)
+    with XDMFFile(MPI.COMM_SELF, str(path), "w") as xdmf:
+        xdmf.write_mesh(msh)
+        for t in FIELD_TIMES:
+            tip = V_RUPT * (t - T_START)
+
+            def sdiff(x, t=t, tip=tip):
+                loaded = np.clip((C_L * t - x[0]) / 5e-3, 0.0, 1.0) * (1.0 + (x[1] < 0))
+                s11 = -3e6 * loaded
+                r = np.hypot(x[0] - tip, x[1])
+                s12 = 4e6 * np.exp(-r / 6e-3) + 2e6 * (x[0] < tip - np.abs(x[1]) * cot)
+                return np.sqrt((s11 + SIGMA0) ** 2 + 4 * s12 ** 2)  # σ1 − σ2 with S22 = −Σ0
+
+            s.interpolate(sdiff)
+            u.interpolate(lambda x, t=t: np.vstack([1e-6 * np.clip(C_L * t - x[0], 0, None) / 1e-2, 0 * x[1]]))
+            v.interpolate(lambda x: np.vstack([np.exp(-x[0] / 0.02), 0 * x[1]]))
+            for fn in (u, v, s):
+                xdmf.write_function(fn, t)
+
+
+def make_run(rundir: Path, n_time: int = 100, n_alloc: int | None = None, fields: bool = True,
+             summary: bool = True) -> Path:
+    """A synthetic run directory in the layout of ``fricfem run``."""
+    rundir.mkdir(parents=True, exist_ok=True)
+    write_interface(rundir / runplots.INTERFACE_FILE, n_time, n_alloc)
+    if summary:
+        write_summary(rundir / runplots.SUMMARY_FILE)
+    if fields:
+        write_fields(rundir / runplots.FIELDS_FILE)
+    return rundir
+
+
+def not_blank(path: Path) -> bool:
+    import matplotlib.image
+
+    img = matplotlib.image.imread(str(path))
+    return path.stat().st_size > 0 and float(np.var(img[..., :3])) > 0.0
+
+
+@pytest.fixture(scope="module")
+def run_plots(tmp_path_factory):
+    """(run directory, written PNGs) of the full synthetic run, drawn once per rank."""
+    rundir = make_run(tmp_path_factory.mktemp(f"run_rank{MPI.COMM_WORLD.rank}") / "case1")
+    return rundir, runplots.plot_run(rundir)
+
+
+def test_every_figure_is_drawn(run_plots):
+    rundir, paths = run_plots
+    with runplots.open_interface(rundir) as itf:
+        rows = itf.nearest(runplots.default_times(itf))
+        tags = {runplots.time_tag(t) for t in itf.time[rows]}
+    assert len(tags) == 4
+    expected = {f"interface_{tag}.png" for tag in tags}
+    expected |= {"tip_speed.png", "station_x16p1.png", "spacetime.png"}
+    expected |= {f"isochromatics_{runplots.time_tag(t)}.png" for t in FIELD_TIMES}
+    names = {p.name for p in paths}
+    assert names == expected
+    for p in paths:
+        assert p.parent == rundir / "plots"
+        assert not_blank(p), p
+
+
+def test_isochromatics_show_fringes(run_plots):
+    """The fringe picture has dark and bright fringes, not a flat grey."""
+    import matplotlib.image
+
+    _, paths = run_plots
+    for p in (p for p in paths if p.name.startswith("isochromatics_")):
+        img = matplotlib.image.imread(str(p))[..., :3].mean(axis=2)
+        inner = img[img.shape[0] // 4 : 3 * img.shape[0] // 4, img.shape[1] // 4 : 3 * img.shape[1] // 4]
+        assert inner.min() < 0.15 and inner.max() > 0.85, p
+
+
+def test_sliding_sign_and_zones(run_plots):
+    """T_s < 0 where it slides gives sign −1; the zones at 32 µs span heal…tip."""
+    rundir, _ = run_plots
+    with runplots.open_interface(rundir) as itf:
+        assert runplots.sliding_sign(itf) == -1.0
+        zones = runplots.sliding_zones(itf, 32e-6)
+        row = int(itf.nearest([32e-6])[0])
+    t = float(np.linspace(0.4e-6, 40e-6, 100)[row])
+    assert len(zones) == 1
+    a, b = zones[0]
+    assert abs(a - max(0.0, V_HEAL * (t - T_HEAL))) < 1e-3
+    assert abs(b - V_RUPT * (t - T_START)) < 1e-3
+
+
+def test_half_written_run_plots_only_valid_rows(tmp_path, monkeypatch):
+    """interface.h5 with 150 rows allocated and n_time = 60: only the 60 are read and drawn."""
+    rundir = make_run(tmp_path / f"killed{MPI.COMM_WORLD.rank}", n_time=60, n_alloc=150, fields=False,
+                      summary=False)
+    figures = {}
+    save = runplots._save
+
+    def keep(fig, path):
+        figures[Path(path).name] = fig
+        return save(fig, path)
+
+    monkeypatch.setattr(runplots, "_save", keep)
+    paths = runplots.plot_run(rundir, out=tmp_path / "out")
+    with h5py.File(rundir / runplots.INTERFACE_FILE) as f:
+        itf = runplots.Interface(f)
+        t_valid = itf.time.copy()
+        assert itf.n_time == 60 and itf.all("slip_rate").shape == (60, 1000)
+        assert np.all(np.isfinite(itf.all("slip_rate"))) and itf.all("slip_rate").max() < 10.0
+        station = itf.stations()["x16p1"]
+        assert np.all(station.data["slip_rate"] < 10.0) and np.all(np.diff(station.time) > 0)
+    last = f"interface_{runplots.time_tag(t_valid[-1])}.png"
+    assert last in {p.name for p in paths}
+    assert not any(n.startswith("isochromatics") for n in figures)  # no fields.xdmf: skipped
+    # the space-time map stops at the last valid row and its colour scale at the valid peak
+    ax = figures["spacetime.png"].axes[0]
+    assert ax.get_ylim()[1] == pytest.approx(t_valid[-1] * 1e6)
+    assert ax.collections[0].norm.vmax < 10.0
+    # the tip (no summary.json here) comes from the valid slip-rate rows only
+    tip_ax = figures["tip_speed.png"].axes[0]
+    assert max(line.get_xdata().max() for line in tip_ax.lines) <= t_valid[-1] * 1e6 + 1e-9
+    for p in paths:
+        assert not_blank(p), p
+
+
+def test_nothing_to_plot_yet(tmp_path, caplog):
+    """n_time = 0 (a run that just started): no interface figures, a note, no crash."""
+    rundir = make_run(tmp_path / "fresh", n_time=5, fields=False, summary=False)
+    with h5py.File(rundir / runplots.INTERFACE_FILE, "a") as f:
+        f.attrs["n_time"] = 0
+    with caplog.at_level("WARNING", logger="fricfem.runplots"):
+        paths = runplots.plot_run(rundir)
+    assert paths == []
+    assert "no valid rows" in caplog.text
+
+
+def test_command_line(run_plots, tmp_path, monkeypatch, capsys):
+    """``fricfem plot RUNDIR --times 22,32 --out DIR`` (µs); other MPI ranks draw nothing."""
+    rundir, _ = run_plots
+    for key in ("OMPI_COMM_WORLD_RANK", "PMI_RANK"):
+        monkeypatch.delenv(key, raising=False)
+    out = tmp_path / "cli"
+    assert runplots.main([str(rundir), "--times", "22,32", "--out", str(out)]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert "interface_22us.png" in names and "interface_32us.png" in names
+    assert "isochromatics_22us.png" in names and "isochromatics_32us.png" in names
+    assert len(capsys.readouterr().out.splitlines()) == len(names)
+    assert runplots.main([str(rundir), "--times", "22,x"]) == 2
+    assert runplots.main([str(tmp_path / "no-such-run")]) == 2
+    monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
+    assert runplots.main([str(rundir), "--out", str(tmp_path / "rank1")]) == 0
+    assert not (tmp_path / "rank1").exists()
+
+
+def test_module_entry_point():
+    """``python -m fricfem.runplots`` is a working command."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMI_", "PMIX_"))}
+    res = subprocess.run([sys.executable, "-m", "fricfem.runplots", "--help"], capture_output=True,
+                         text=True, env=env, timeout=60)
+    assert res.returncode == 0 and "RUNDIR" in res.stdout.upper()
+
+
+def test_field_reader_with_dolfinx_loaded(run_plots):
+    """fields.xdmf is read with the real mesh (VTK's own XDMF reader returns all
+    points at the origin once dolfinx's libhdf5 is in the process)."""
+    import dolfinx  # noqa: F401 (the situation of a demo that runs and then plots)
+
+    rundir, _ = run_plots
+    reader = runplots.FieldReader(rundir / runplots.FIELDS_FILE)
+    assert np.allclose(reader.times, FIELD_TIMES)
+    grid = reader.grid(1)
+    assert grid.n_cells == 2 * 110 * 120
+    assert np.allclose(grid.bounds[:4], (0.0, 0.137, -0.075, 0.075))
+    values = grid.cell_data["stress_difference"]
+    assert values.shape == (grid.n_cells,) and values.min() >= 0.0 and values.max() > SIGMA0
