@@ -64,6 +64,8 @@ def _run(args) -> int:
         print(f"{summary['scene']}: {summary['steps']} steps of {summary['dt_s'] * 1e9:.1f} ns on {summary['ranks']} "
               f"rank(s), {summary['dofs']} dofs; {where}; mode: {mode}; wall {w['total']:.1f} s "
               f"(setup {w['setup']:.1f}, loop {w['time_loop']:.1f}, output {w['output']:.1f})", file=sys.stderr)
+        if summary.get("watchdog"):
+            print(f"fricfem: {summary['watchdog']}", file=sys.stderr)
     return 0 if summary.get("complete") else 1
 
 

@@ -93,6 +93,13 @@ SCHEMA = {
                            open_high=True),
         "dt": Field(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety)"),
     },
+    "watchdog": {
+        "enabled": Field(bool, True, doc="stop a diverging run with a message"),
+        "max_slip_rate": Field(NUM, 5e4, "m/s", 0.0, None, "slip rates beyond this are taken as divergence",
+                               open_low=True),
+        "energy_factor": Field(NUM, 1.5, "", 1.0, None, "stop when stored energy exceeds this × the input work",
+                               open_low=True),
+    },
     "output": {
         "fields": Field(list, [], "s", doc="times of field snapshots (displacement, velocity, σ1 − σ2)"),
         "interface_every": Field(NUM, 0.2e-6, "s", 0.0, 1.0, "cadence of interface snapshots",
@@ -126,6 +133,7 @@ class Scene(NamedTuple):
     dt_safety: float
     dt: float | None
     output: dict
+    watchdog: dict
     raw: dict  # the merged TOML tables, for the record
 
 
@@ -334,7 +342,7 @@ def validate(raw: dict) -> Scene:
         sigma0=float(ld["sigma0"]), symmetric=ld["symmetric"], Cn=float(itf["Cn"]), Cs=float(itf["Cs"]),
         tau0=float(itf["tau0"]), tau0_patches=patches, law=fr["law"], params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
-        output=out, raw=raw,
+        output=out, watchdog=sec["watchdog"], raw=raw,
     )
 
 

@@ -223,6 +223,42 @@ class Progress:
             sys.stderr.write("\n")
 
 
+#: watchdog codes -> what they mean
+_WATCH = {1: "non-finite interface tractions or slip rates", 2: "slip rate beyond the bound",
+          3: "energy growth beyond the input work"}
+
+
+def watchdog_code(points, energy, limits: dict) -> int:
+    """0 if the step looks sane, else a code of :data:`_WATCH` (local, no communication).
+
+    Checks every step: finite interface tractions and slip rates, slip rate below
+    ``max_slip_rate``; at energy steps: energies finite and kinetic + strain +
+    interface energy at most ``energy_factor`` × the work done by the struck edge.
+    """
+    if not limits["enabled"]:
+        return 0
+    if not (np.isfinite(points.Ts).all() and np.isfinite(points.slip_rate).all()):
+        return 1
+    if points.slip_rate.size and points.slip_rate.max() > limits["max_slip_rate"]:
+        return 2
+    if energy is not None:
+        stored = energy["kinetic"] + energy["strain"] + energy["interface_work"]
+        if not np.isfinite(stored) or stored > limits["energy_factor"] * max(energy["external"], 1e-9):
+            return 3
+    return 0
+
+
+def _watchdog_message(code: int, t: float, model, limits) -> str:
+    ratio = model.dt / model.dt_crit
+    cause = (f"the explicit step is unstable: dt = {model.dt:.3g} s is {ratio:.2f} × the stable step "
+             f"{model.dt_crit:.3g} s — use time.dt_safety < 1 and no larger time.dt"
+             if ratio >= 1.0 else
+             "the interface update diverged at a stable bulk step — check the friction parameters, "
+             "lower friction.params.substep_tol, or the interface stiffnesses")
+    what = _WATCH[code] + (f" ({limits['max_slip_rate']:g} m/s)" if code == 2 else "")
+    return f"watchdog stopped the run at t = {t * 1e6:.3f} µs: {what}; likely cause: {cause}"
+
+
 def build_model(scene: Scene, comm):
     """Mesh + model for a validated scene."""
     pm = mesh.build(scene.mesh, comm)
@@ -294,6 +330,9 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
         "dt_s": model.dt, "dt_crit_s": model.dt_crit, "steps": 0, "t_end_s": scene.t_end,
         "speeds": speeds, "input": scene.raw,
     }
+    if model.dt > model.dt_crit and comm.rank == 0:
+        sys.stderr.write(f"fricfem: warning: time.dt = {model.dt:.3g} s exceeds the stable step "
+                         f"{model.dt_crit:.3g} s; the watchdog will stop the run if it diverges\n")
     rec = Recorder(out / "interface.h5", scene, model, speeds)
     writer = None
     if scene.output["fields"]:
@@ -321,6 +360,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     last_energy = None
     last_flush = time.perf_counter()
     interrupted = False
+    stopped = None
     t_loop0 = time.perf_counter()
     first_step_s = None
     try:
@@ -335,8 +375,9 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
                               -x1[sliding].min() if sliding.any() else -np.inf,
                               1.0 if stop["flag"] else 0.0,
                               1.0 if (comm.rank == 0 and time.perf_counter() - last_flush
-                                      > scene.output["flush_every"]) else 0.0])
-            glob = np.empty(4)
+                                      > scene.output["flush_every"]) else 0.0,
+                              watchdog_code(p, e, scene.watchdog)])
+            glob = np.empty(5)
             comm.Allreduce(local, glob, op=MPI.MAX)
             if glob[0] >= 0:
                 tip_t.append(st.t)
@@ -359,6 +400,9 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
             if on_step is not None:
                 on_step(st)
             progress.update(st.t, f"tip {glob[0] * 1e3:6.1f} mm" if glob[0] >= 0 else "no slip")
+            if glob[4] > 0:
+                stopped = _watchdog_message(int(glob[4]), st.t, model, scene.watchdog)
+                break
             if glob[2] > 0:
                 interrupted = True
                 break
@@ -373,7 +417,8 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     if writer is not None:
         writer.close()
     summary.update(
-        steps=state.n, t_s=state.t, complete=not interrupted, interrupted=interrupted,
+        steps=state.n, t_s=state.t, complete=not (interrupted or stopped), interrupted=interrupted,
+        watchdog=stopped,
         initiation=initiation,
         energy=None if last_energy is None else {k: last_energy[k] for k in ENERGY_KEYS},
     )

@@ -1,0 +1,34 @@
+"""The watchdog stops a diverging run with a message that names the likely cause."""
+
+from __future__ import annotations
+
+import json
+
+from fricfem import config, run
+
+
+def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
+    """dt = 1.5 × the stable step diverges; the run stops with the watchdog's message,
+    keeps its outputs, and says it is incomplete."""
+    probe = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=10"])
+    _, model = run.build_model(probe, comm)
+    dt = 1.5 * model.dt_crit
+    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=10", f"time.dt={dt!r}",
+                                  "output.fields=[]", "output.energy_every=5"])
+    out = tmp_dir_shared / "unstable"
+    summary = run.run_scene(scene, out, comm, quiet=True)
+    assert not summary["complete"]
+    msg = summary["watchdog"]
+    assert msg.startswith("watchdog stopped the run at t = ")
+    assert "1.50 × the stable step" in msg and "time.dt_safety < 1" in msg
+    assert summary["steps"] < int(scene.t_end / dt)
+    if comm.rank == 0:
+        assert json.loads((out / "summary.json").read_text())["watchdog"] == msg
+        assert (out / "interface.h5").exists()
+
+
+def test_stable_run_is_not_stopped(comm, tmp_dir_shared):
+    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=40", "loading.sigma0=24e6",
+                                  "output.fields=[]", "time.end=20e-6"])
+    summary = run.run_scene(scene, tmp_dir_shared / "stable", comm, quiet=True)
+    assert summary["complete"] and summary["watchdog"] is None
