@@ -423,7 +423,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
         energy=None if last_energy is None else {k: last_energy[k] for k in ENERGY_KEYS},
     )
     failure = None
-    if comm.rank == 0 and scene.output["diagnostics"]:
+    if comm.rank == 0 and scene.output["diagnostics"] and not stopped:
         try:
             summary.update(_diagnose(rec, tip_t, tip_x, speeds, every))
         except Exception as err:  # keep the run's outputs; say what failed
