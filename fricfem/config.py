@@ -92,6 +92,8 @@ SCHEMA = {
         "dt_safety": Field(NUM, 0.9, "", 0.0, 1.0, "fraction of the stable step", open_low=True,
                            open_high=True),
         "dt": Field(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety)"),
+        "stop_at_tip": Field(NUM, 0.0, "m", 0.0, None,
+                             "end the run once the sliding tip passes this x1 (0: never), e.g. the fine region's end"),
     },
     "watchdog": {
         "enabled": Field(bool, True, doc="stop a diverging run with a message"),
@@ -132,6 +134,7 @@ class Scene(NamedTuple):
     t_end: float
     dt_safety: float
     dt: float | None
+    stop_at_tip: float
     output: dict
     watchdog: dict
     raw: dict  # the merged TOML tables, for the record
@@ -342,6 +345,7 @@ def validate(raw: dict) -> Scene:
         sigma0=float(ld["sigma0"]), symmetric=ld["symmetric"], Cn=float(itf["Cn"]), Cs=float(itf["Cs"]),
         tau0=float(itf["tau0"]), tau0_patches=patches, law=fr["law"], params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
+        stop_at_tip=float(tm["stop_at_tip"]),
         output=out, watchdog=sec["watchdog"], raw=raw,
     )
 

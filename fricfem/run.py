@@ -361,6 +361,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     last_flush = time.perf_counter()
     interrupted = False
     stopped = None
+    ended_early = None
     t_loop0 = time.perf_counter()
     first_step_s = None
     try:
@@ -403,6 +404,9 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
             if glob[4] > 0:
                 stopped = _watchdog_message(int(glob[4]), st.t, model, scene.watchdog)
                 break
+            if scene.stop_at_tip and glob[0] > scene.stop_at_tip:
+                ended_early = f"the sliding tip passed x1 = {scene.stop_at_tip * 1e3:g} mm at t = {st.t * 1e6:.3f} µs"
+                break
             if glob[2] > 0:
                 interrupted = True
                 break
@@ -418,7 +422,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
         writer.close()
     summary.update(
         steps=state.n, t_s=state.t, complete=not (interrupted or stopped), interrupted=interrupted,
-        watchdog=stopped,
+        watchdog=stopped, ended_early=ended_early,
         initiation=initiation,
         energy=None if last_energy is None else {k: last_energy[k] for k in ENERGY_KEYS},
     )

@@ -152,3 +152,12 @@ def test_sigterm_leaves_a_readable_interface_file(comm, tmp_dir_shared):
             assert n >= 3 and np.isfinite(f["slip_rate"][:n]).all()
             assert f["time"][n - 1] <= summary["t_s"] + 1e-12
         assert json.loads((out / "summary.json").read_text())["complete"] is False
+
+
+def test_run_ends_when_the_tip_leaves_the_region_of_interest(comm, tmp_dir_shared):
+    """time.stop_at_tip ends a run early (a sweep's question answered), complete and labelled."""
+    scene = _short_scene("time.stop_at_tip=0.01", "output.fields=[]")
+    summary = run.run_scene(scene, tmp_dir_shared / "early", comm, quiet=True)
+    assert summary["complete"] and summary["ended_early"].startswith("the sliding tip passed x1 = 10 mm")
+    assert summary["t_s"] < scene.t_end
+    assert summary["tip"]["x1_m"][-1] > 0.01
