@@ -135,6 +135,20 @@ def tip_and_behind(r: Run, t, quantity):
     return float(q[near].max()), (float(q[behind].mean()) if behind.any() else float("nan"))
 
 
+def pulse_train(r: Run, t: float, x_max: float = 60e-3) -> dict:
+    """Width, stick length and spacing [mm] of the pulses behind the leading one at ``t``:
+    regions within the uniform fine mesh (x_end < ``x_max``); width the median over
+    them but the last (the leading pulse), spacing the median distance between
+    successive region starts."""
+    regs = r.regions(r.at(t))
+    behind = [g for g in regs if g.x_end < x_max]
+    widths = [g.width * 1e3 for g in behind[:-1]] if len(behind) > 2 else []
+    starts = [g.x_start * 1e3 for g in behind]
+    spacing = float(np.median(np.diff(starts))) if len(starts) > 2 else float("nan")
+    width = float(np.median(widths)) if widths else float("nan")
+    return {"n_regions": len(regs), "width_mm": width, "spacing_mm": spacing, "stick_mm": spacing - width}
+
+
 def statements(runs: dict, speeds) -> list:
     R = {k: load_run(v) for k, v in runs.items()}
     out = []
@@ -186,12 +200,8 @@ def statements(runs: dict, speeds) -> list:
     c3 = R["case3"]
     add("case3", "train of pulses", mode(c3), mode(c3) == "pulse-train")
     k = c3.at(32e-6)
-    regs = c3.regions(k)
-    behind = [g for g in regs if g.x_end < 60e-3]
-    widths = [g.width * 1e3 for g in behind[:-1]] if len(behind) > 2 else []
-    starts = [g.x_start * 1e3 for g in behind]
-    spacing = float(np.median(np.diff(starts))) if len(starts) > 2 else float("nan")
-    width = float(np.median(widths)) if widths else float("nan")
+    train = pulse_train(c3, 32e-6)
+    width, spacing = train["width_mm"], train["spacing_mm"]
     add("case3", "pulse width 1.33 mm, spacing 2.21 mm at 32 µs (±25 %)", f"{width:.2f} / {spacing:.2f} mm",
         close(width, 1.33, 0.25) and close(spacing, 2.21, 0.25))
     pk = float(c3.rate[k].max())
