@@ -189,6 +189,20 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
     )
 
 
+@numba.njit(inline="always", cache=True)
+def _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy):
+    """Add the *negative* of a Gauss point's force (fx, fy) on the lower plate
+    to the lower nodes a, b (shape values na, nb) and its opposite to the upper."""
+    fw[la] -= na * fx
+    fw[la + 1] -= na * fy
+    fw[lb] -= nb * fx
+    fw[lb + 1] -= nb * fy
+    fw[ua] += na * fx
+    fw[ua + 1] += na * fy
+    fw[ub] += nb * fx
+    fw[ub + 1] += nb * fy
+
+
 _f8v = numba.types.float64[::1]
 _f8m = numba.types.float64[:, ::1]
 _KERNEL_SIGNATURE = numba.types.void(
@@ -255,14 +269,7 @@ def interface_kernel(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs,
             slip_rate[q] = sr
             fx = (ts_new - p_Ts0[q]) * wq[q]  # force on the lower plate, x1
             fy = -(tn_new - p_Tn0[q]) * wq[q]  # force on the lower plate, x2
-            fw[la] -= na * fx
-            fw[la + 1] -= na * fy
-            fw[lb] -= nb * fx
-            fw[lb + 1] -= nb * fy
-            fw[ua] += na * fx
-            fw[ua + 1] += na * fy
-            fw[ub] += nb * fx
-            fw[ub + 1] += nb * fy
+            _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy)
 
 
 @numba.njit(numba.types.void(_f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v), cache=True)
@@ -277,14 +284,7 @@ def spring_kernel(w, fw, seg_w, shape, wq, Cn, Cs):
             na, nb = shape[g, 0], shape[g, 1]
             fx = Cs[q] * wq[q] * (na * (w[ua] - w[la]) + nb * (w[ub] - w[lb]))
             fy = Cn[q] * wq[q] * (na * (w[ua + 1] - w[la + 1]) + nb * (w[ub + 1] - w[lb + 1]))
-            fw[la] -= na * fx
-            fw[la + 1] -= na * fy
-            fw[lb] -= nb * fx
-            fw[lb + 1] -= nb * fy
-            fw[ua] += na * fx
-            fw[ua + 1] += na * fy
-            fw[ub] += nb * fx
-            fw[ub + 1] += nb * fy
+            _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy)
 
 
 class Interface:
