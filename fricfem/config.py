@@ -57,7 +57,7 @@ SCHEMA = {
         "preset": Field(str, "reference", doc="coarse, reference, half or fine"),
         **{
             f.name: Field(NUM, None, "m" if f.name != "grading" else "", 0.0, None, f"mesh {f.name}",
-                          open_low=True)
+                          open_low=f.name != "fine_x0")
             for f in dataclasses.fields(mesh.MeshSpec)
         },
     },

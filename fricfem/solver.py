@@ -64,13 +64,18 @@ class Model(NamedTuple):
 
 class State:
     """Dynamic state: u^n, v^{n−½} (PETSc vectors), t^n, n, and the running
-    external work and the impacted dofs' previous displacement."""
+    external work and the impacted dofs' previous displacement.
+
+    A step computes the interface at t^n (from u^n) and then moves u to t^{n+1}:
+    after it, ``t`` is t^{n+1} and ``t_interface`` is t^n, the time at which the
+    interface tractions and slip rates hold."""
 
     def __init__(self, model: Model):
         self.u = model.K.createVecRight()
         self.v = model.K.createVecRight()
         self.f = model.K.createVecRight()
         self.t = 0.0
+        self.t_interface = 0.0  # time of the interface state (tractions, slip rates): t^n of the last step
         self.n = 0
         self.work_ext = 0.0  # this rank's share [J/m]
         self.u_imp_prev = np.zeros(len(model.impact.dofs))
@@ -110,6 +115,8 @@ def lumped_mass(V, rho: float) -> np.ndarray:
 
 def impact_dofs(V, facet_tags, names) -> np.ndarray:
     """Owned local x1-dof indices on the facets tagged with any of ``names``."""
+    if not names:
+        return np.zeros(0, dtype=np.int32)
     facets = np.sort(np.concatenate([facet_tags.indices[facet_tags.values == TAGS[n]] for n in names]))
     dofs = fem.locate_dofs_topological(V.sub(0), V.mesh.topology.dim - 1, facets)
     n_owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
@@ -230,6 +237,7 @@ def step(model: Model, state: State, energy: dict | None = None) -> None:
         energy["balance_error"] = (
             energy["kinetic"] + energy["strain"] + energy["interface_work"] - energy["external"]
         )
+    state.t_interface = state.t
     state.t += dt
     state.n += 1
 

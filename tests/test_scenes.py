@@ -48,7 +48,7 @@ BAD = [
     ("[mesh]\npreset = 'huge'", "mesh.preset = 'huge': unknown; allowed: coarse, reference, half, fine"),
     ("[mesh]\ndx = 1e-7\ndy = 1e-7", "at most 5e6 are allowed"),
     ("[friction]\nlaw = 'coulomb'", "friction.law = 'coulomb': unknown friction law"),
-    ("[friction.params]\nmu_s = -0.6", "friction.params.mu_s = -0.6: must lie in [0, 5]"),
+    ("[friction.params]\nmu_s = -0.6", "friction.params.mu_s = -0.6: must lie in [0, 10000]"),
     ("[friction.params]\nmu_k = 0.5", "friction.params.mu_k: unknown parameter"),
     ("[[friction.regions]]\nx1_min = 0.05\nx1_max = 0.01", "friction.regions[0]: x1_min = 0.05 m must be < x1_max"),
     ("[[friction.regions]]\nx1_min = 0.0\nx1_max = 0.3", "friction.regions[0].x1_max = 0.3 m: must lie in [0, 0.137]"),

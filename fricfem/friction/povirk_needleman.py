@@ -71,7 +71,7 @@ from .base import Law, Param, frictional_work, sign
 MU_S, MU_D, V0, V1, B, P, M, L0, L1, L2, C, D, THETA0_INIT, GAMMA, SUB_TOL, SUB_STIFF = range(16)
 
 PARAMS = (
-    Param("mu_s", 0.6, "", 0.0, 5.0, "static friction coefficient μs"),
+    Param("mu_s", 0.6, "", 0.0, 1e4, "static friction coefficient μs (a large value locks a barrier)"),
     Param("mu_d", 0.5, "", 0.0, 5.0, "dynamic friction coefficient μd"),
     Param("V0", 100.0, "m/s", 1e-6, 1e6, "reference slip rate of the rate sensitivity"),
     Param("V1", 26.0, "m/s", 1e-6, 1e6, "slip rate of the steady-state weakening"),

@@ -23,7 +23,7 @@ from .base import Law, Param, frictional_work, sign
 MU_S, MU_D, DC = range(3)
 
 PARAMS = (
-    Param("mu_s", 0.677, "", 0.0, 5.0, "static friction coefficient μs"),
+    Param("mu_s", 0.677, "", 0.0, 1e4, "static friction coefficient μs (a large value locks a barrier)"),
     Param("mu_d", 0.525, "", 0.0, 5.0, "dynamic friction coefficient μd (after slip Dc)"),
     Param("Dc", 0.40, "m", 1e-12, 100.0, "slip-weakening distance"),
 )
