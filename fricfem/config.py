@@ -92,13 +92,15 @@ SCHEMA = {
         "dt_safety": Field(NUM, 0.9, "", 0.0, 1.0, "fraction of the stable step", open_low=True,
                            open_high=True),
         "dt": Field(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety)"),
+        "allow_unstable_dt": Field(bool, False, doc="accept a time.dt above the stable step (stability "
+                                                    "experiments; the watchdog guards the run)"),
         "stop_at_tip": Field(NUM, 0.0, "m", 0.0, None,
                              "end the run once the sliding tip passes this x1 (0: never), e.g. the fine region's end"),
     },
     "watchdog": {
         "enabled": Field(bool, True, doc="stop a diverging run with a message"),
-        "max_slip_rate": Field(NUM, 5e4, "m/s", 0.0, None, "slip rates beyond this are taken as divergence",
-                               open_low=True),
+        "max_slip_rate": Field(NUM, 0.0, "m/s", 0.0, None,
+                               "slip rates beyond this are taken as divergence (0: the material's c_l)"),
         "energy_factor": Field(NUM, 1.5, "", 1.0, None, "stop when stored energy exceeds this × the input work",
                                open_low=True),
     },
@@ -135,6 +137,7 @@ class Scene(NamedTuple):
     dt_safety: float
     dt: float | None
     stop_at_tip: float
+    allow_unstable_dt: bool
     output: dict
     watchdog: dict
     raw: dict  # the merged TOML tables, for the record
@@ -345,7 +348,7 @@ def validate(raw: dict) -> Scene:
         sigma0=float(ld["sigma0"]), symmetric=ld["symmetric"], Cn=float(itf["Cn"]), Cs=float(itf["Cs"]),
         tau0=float(itf["tau0"]), tau0_patches=patches, law=fr["law"], params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
-        stop_at_tip=float(tm["stop_at_tip"]),
+        stop_at_tip=float(tm["stop_at_tip"]), allow_unstable_dt=tm["allow_unstable_dt"],
         output=out, watchdog=sec["watchdog"], raw=raw,
     )
 

@@ -240,26 +240,51 @@ def watchdog_code(points, energy, limits: dict) -> int:
     """
     if not limits["enabled"]:
         return 0
-    if not (np.isfinite(points.Ts).all() and np.isfinite(points.slip_rate).all()):
+    if not (np.isfinite(points.Ts).all() and np.isfinite(points.Tn).all()
+            and np.isfinite(points.slip_rate).all()):
         return 1
     if points.slip_rate.size and points.slip_rate.max() > limits["max_slip_rate"]:
         return 2
     if energy is not None:
         excess = energy["balance_error"]
-        scale = max(energy["external"], energy["kinetic"] + energy["strain"], 1e-12)
+        scale = max(energy["external"], abs(energy["kinetic"]) + abs(energy["strain"]), 1e-12)
         if not np.isfinite(excess) or excess > (limits["energy_factor"] - 1.0) * scale:
+            return 3
+        # ½ v^{n−½}·M v^{n+½} + ½ u·K u is conserved by central differences at any
+        # step; beyond the stable step the growing mode makes the kinetic part negative
+        if energy["kinetic"] < -1e-6 * scale:
             return 3
     return 0
 
 
+def _runaway_note(model) -> str:
+    """The Povirk–Needleman law's finite-time slip-rate runaway criterion, if that law is used."""
+    law = model.interface.law
+    if law.name != "povirk_needleman":
+        return "the friction law's slip rate ran away"
+    from .friction import povirk_needleman as pn
+
+    p = model.interface.points
+    limit = float(np.min(p.params[:, pn.M] * p.params[:, pn.L0] * p.Cs)) if len(p.Cs) else float("nan")
+    limit = model.comm.allreduce(limit if np.isfinite(limit) else np.inf, op=MPI.MIN)
+    return ("the Povirk–Needleman slip rate runs away in finite time once |T_s| exceeds "
+            f"m·L0·C_s = {limit / 1e6:.3g} MPa — a property of the law with these parameters, not of the "
+            "step: the loading is beyond what the law can represent (raise interface.Cs or L0, or lower "
+            "the loading)")
+
+
 def _watchdog_message(code: int, t: float, model, limits) -> str:
     ratio = model.dt / model.dt_crit
-    cause = (f"the explicit step is unstable: dt = {model.dt:.3g} s is {ratio:.2f} × the stable step "
-             f"{model.dt_crit:.3g} s — use time.dt_safety < 1 and no larger time.dt"
-             if ratio >= 1.0 else
-             "the interface update diverged at a stable bulk step — check the friction parameters, "
-             "lower friction.params.substep_tol, or the interface stiffnesses")
-    what = _WATCH[code] + (f" ({limits['max_slip_rate']:g} m/s)" if code == 2 else "")
+    if ratio >= 1.0:
+        cause = (f"the explicit step is unstable: dt = {model.dt:.3g} s is {ratio:.2f} × the stable step "
+                 f"{model.dt_crit:.3g} s — use time.dt_safety < 1 and no larger time.dt")
+    elif code == 2:
+        cause = _runaway_note(model)
+    else:
+        cause = ("the interface update diverged at a stable bulk step — check the friction parameters "
+                 "and the interface stiffnesses")
+    what = _WATCH[code] + (f" ({limits['max_slip_rate']:g} m/s, the material's c_l unless set)"
+                           if code == 2 else "")
     return f"watchdog stopped the run at t = {t * 1e6:.3f} µs: {what}; likely cause: {cause}"
 
 
@@ -336,9 +361,16 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
         "dt_s": model.dt, "dt_crit_s": model.dt_crit, "steps": 0, "t_end_s": scene.t_end,
         "speeds": speeds, "input": scene.raw,
     }
-    if model.dt > model.dt_crit and comm.rank == 0:
-        sys.stderr.write(f"fricfem: warning: time.dt = {model.dt:.3g} s exceeds the stable step "
-                         f"{model.dt_crit:.3g} s; the watchdog will stop the run if it diverges\n")
+    if model.dt > model.dt_crit:
+        if not scene.allow_unstable_dt:
+            raise SceneError(f"time.dt = {model.dt:.3g} s exceeds the stable step {model.dt_crit:.3g} s of this "
+                             "mesh and interface; use time.dt_safety in (0, 1) (or set "
+                             "time.allow_unstable_dt = true for a stability experiment)")
+        if comm.rank == 0:
+            sys.stderr.write(f"fricfem: warning: time.dt = {model.dt:.3g} s exceeds the stable step "
+                             f"{model.dt_crit:.3g} s; the watchdog will stop the run if it diverges\n")
+    if not scene.watchdog["max_slip_rate"]:
+        scene = scene._replace(watchdog={**scene.watchdog, "max_slip_rate": scene.material.c_l})
     rec = Recorder(out / "interface.h5", scene, model, speeds)
     writer = None
     if scene.output["fields"]:

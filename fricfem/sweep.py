@@ -69,11 +69,12 @@ MARKERS = {
     "pulse": dict(marker="^", facecolor="C0", edgecolor="k", label="pulse"),
     "pulse-train": dict(marker="D", facecolor="C2", edgecolor="k", label="train of pulses"),
     "mixed": dict(marker="*", facecolor="C4", edgecolor="k", label="mixed", size=1.8),
+    "diverged": dict(marker="X", facecolor="0.2", edgecolor="k", label="stopped by the watchdog"),
     None: dict(marker="x", facecolor="k", edgecolor="k", label="incomplete / not classified"),
 }
 
 #: Table cell per label (stdout).
-SHORT = {"none": ".", "crack-like": "crack", "pulse": "pulse", "pulse-train": "train", "mixed": "mixed",
+SHORT = {"none": ".", "crack-like": "crack", "pulse": "pulse", "pulse-train": "train", "mixed": "mixed", "diverged": "div",
          None: "?"}
 
 _CRACK = ("crack-like",)
@@ -204,10 +205,15 @@ def read_summary(run_dir: Path) -> dict | None:
         return None
 
 
+def finished(s: dict | None) -> bool:
+    """A run that ended for good: complete, or stopped by the watchdog (rerunning gives the same)."""
+    return bool(s) and bool(s.get("complete") or s.get("watchdog"))
+
+
 def status(point: Point, scene_raw: dict) -> str:
-    """'done' (complete, same inputs), 'stale' (complete, other inputs), 'todo' (absent or incomplete)."""
+    """'done' (finished, same inputs), 'stale' (finished, other inputs), 'todo' (absent or incomplete)."""
     s = read_summary(point.dir)
-    if not s or not s.get("complete"):
+    if not finished(s):
         return "todo"
     if json.loads(json.dumps(s.get("input"))) != json.loads(json.dumps(scene_raw)):
         return "stale"
@@ -257,9 +263,9 @@ def record(point: Point) -> dict:
         "sigma0_MPa": point.sigma0_mpa,
         "v_imp_m_s": point.v_imp,
         "dir": str(Path("points") / point.key),
-        "complete": bool(s.get("complete")),
-        "label": mode.get("label"),
-        "reason": ev.get("reason") or s.get("diagnostics_error"),
+        "complete": finished(s),
+        "label": "diverged" if s.get("watchdog") else mode.get("label"),
+        "reason": s.get("watchdog") or ev.get("reason") or s.get("diagnostics_error"),
         "initiation": ini,
         "peak_slip_rate_m_s": peak_slip_rate(point.dir) if s else None,
         "tip_speed_median_m_s": _finite_median(tip.get("v_tip_m_s")) if ini else None,

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from fricfem import config, run
+from fricfem.config import SceneError
 
 
 def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
@@ -13,8 +16,11 @@ def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
     probe = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=10"])
     _, model = run.build_model(probe, comm)
     dt = 1.5 * model.dt_crit
-    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=10", f"time.dt={dt!r}",
-                                  "output.fields=[]", "output.energy_every=5"])
+    args = ["mesh.preset='coarse'", "loading.v_imp=10", f"time.dt={dt!r}", "output.fields=[]",
+            "output.energy_every=5"]
+    with pytest.raises(SceneError, match="exceeds the stable step"):
+        run.run_scene(config.load("case1", args), tmp_dir_shared / "refused", comm, quiet=True)
+    scene = config.load("case1", args + ["time.allow_unstable_dt=true"])
     out = tmp_dir_shared / "unstable"
     summary = run.run_scene(scene, out, comm, quiet=True)
     assert not summary["complete"]
@@ -25,6 +31,17 @@ def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
     if comm.rank == 0:
         assert json.loads((out / "summary.json").read_text())["watchdog"] == msg
         assert (out / "interface.h5").exists()
+
+
+def test_runaway_slip_rate_is_stopped_with_the_law_criterion(comm, tmp_dir_shared):
+    """Σ0 = 30 MPa struck at 100 m/s: |T_s| passes m·L0·C_s = 10 MPa and the law's slip
+    rate runs away; the watchdog stops the run at c_l and names the criterion."""
+    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=100", "loading.sigma0=30e6",
+                                  "output.fields=[]"])
+    summary = run.run_scene(scene, tmp_dir_shared / "runaway", comm, quiet=True)
+    assert not summary["complete"]
+    assert "slip rate beyond the bound" in summary["watchdog"]
+    assert "m·L0·C_s = 10 MPa" in summary["watchdog"]
 
 
 def test_stable_run_is_not_stopped(comm, tmp_dir_shared):
