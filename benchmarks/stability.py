@@ -305,7 +305,7 @@ def run_point(pt: dict, work: Path, t_end: float) -> dict:
         if pt.get("dt_factor"):
             _, model = run.build_model(scene, MPI.COMM_SELF)
             rec["dt_crit_s"] = model.dt_crit
-            scene = config.load(BASE, items + [f"time.dt={pt['dt_factor'] * model.dt_crit!r}"])
+            scene = config.load(BASE, items + [f"time.dt={pt['dt_factor'] * model.dt_crit!r}", "time.allow_unstable_dt=true"])
             del model
         summary = run.run_scene(scene, d, MPI.COMM_SELF, overwrite=True, quiet=True)
         rec.update(steps=summary["steps"], t_stop_s=summary["t_s"], dt_s=summary["dt_s"],
@@ -840,7 +840,7 @@ def _write(args, gathered, reused, t_end, ranks, t0) -> dict:
         "gamma_dt_loadings": [list(x) for x in GAMMA_DT_LOADINGS], "sigma_v_k": list(SIGMA_V_K),
         "lhs": {"points": LHS_POINTS, "seed": LHS_SEED},
         "unstable_factors": list(UNSTABLE_FACTORS), "unstable_loadings": [list(x) for x in UNSTABLE_LOADINGS],
-        "max_slip_rate": base.watchdog["max_slip_rate"],
+        "max_slip_rate": base.watchdog["max_slip_rate"] or base.material.c_l,  # 0 means the material's c_l
         "counts": counts(design_recs), "unstable_counts": counts(unstable),
         "per_level": per_level(design_recs),
         "gamma_dt": gamma_dt(by_key, c_l),

@@ -462,7 +462,8 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
         steps=state.n, t_s=state.t, complete=not (interrupted or stopped), interrupted=interrupted,
         watchdog=stopped, ended_early=ended_early,
         initiation=initiation,
-        energy=None if last_energy is None else {k: last_energy[k] for k in ENERGY_KEYS},
+        energy=None if last_energy is None else {**{k: last_energy[k] for k in ENERGY_KEYS},
+                                                 "interface": last_energy["interface_elastic"]},
     )
     failure = None
     if comm.rank == 0 and scene.output["diagnostics"] and not stopped:
