@@ -18,6 +18,7 @@ Verbs: :func:`build` (assemble once), :func:`initial_state`, :func:`step`,
 from __future__ import annotations
 
 import math
+import time
 from typing import NamedTuple
 
 import numba
@@ -203,17 +204,25 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm)
 
 
-def step(model: Model, state: State, energy: dict | None = None) -> None:
+def step(model: Model, state: State, energy: dict | None = None, timers: dict | None = None) -> None:
     """Advance ``state`` by one step ``model.dt``.  If ``energy`` is a dict it is
-    filled with the energies at t^n (collective)."""
+    filled with the energies at t^n (collective).  If ``timers`` is a dict, the
+    seconds spent in the phases ``bulk`` (K·u), ``interface`` (gather, kernel,
+    scatter-add) and ``update`` (leapfrog pass, struck edge, work) are added to it."""
     dt = model.dt
     imp = model.impact
     u, v, f = state.u, state.v, state.f
+    if timers is not None:
+        t0 = time.perf_counter()
     model.K.mult(u, f)  # f = K u^n
     if energy is not None:
         strain = 0.5 * u.dot(f)
         v_old = v.array_r.copy()
+    if timers is not None:
+        t1 = time.perf_counter()
     model.interface.add_forces(u, f, dt)  # f = K u^n − F_int(u^n)
+    if timers is not None:
+        t2 = time.perf_counter()
     fa = f.array_r
     f_imp = fa[imp.dofs]
     v_imp_old = v.array_r[imp.dofs]
@@ -240,6 +249,10 @@ def step(model: Model, state: State, energy: dict | None = None) -> None:
     state.t_interface = state.t
     state.t += dt
     state.n += 1
+    if timers is not None:
+        t3 = time.perf_counter()
+        for name, seconds in (("bulk", t1 - t0), ("interface", t2 - t1), ("update", t3 - t2)):
+            timers[name] = timers.get(name, 0.0) + seconds
 
 
 def evolve(model: Model, state: State, t_end: float, energy_every: int = 0):
