@@ -17,7 +17,8 @@ forces carry the traction increments: the lower plate receives
 MPI.  The plates are meshed separately, so the two nodes of a pair are never
 neighbours in the dolfinx mesh and (dolfinx's partitioner puts one plate on each
 of two ranks) usually live on different ranks.  Segments are dealt out to ranks
-in contiguous chunks along x1; each rank gathers the displacements of the nodes
+in blocks, round-robin along x1 (each rank gets a share of the sliding region);
+each rank gathers the displacements of the nodes
 its segments touch with one PETSc scatter, runs the kernel, and adds the nodal
 forces back with the reverse scatter.  No ghosts are involved.
 """
@@ -34,6 +35,9 @@ from petsc4py import PETSc
 from .friction.base import ADVANCE_TYPE
 from .mesh import TAGS
 
+#: Segments are dealt to ranks in blocks of this many, round-robin along x1.
+SEG_BLOCK = 8
+
 #: Gauss–Legendre points and weights on [-1, 1], 4 points.
 GAUSS_XI, GAUSS_W = np.polynomial.legendre.leggauss(4)
 
@@ -42,7 +46,7 @@ class Geometry(NamedTuple):
     """Interface geometry seen by one rank.
 
     x1_nodes  float64[n_nodes]   x1 of every interface node pair, sorted (all ranks) [m]
-    segments  (first, stop)      this rank's segments, global indices
+    segments  int64[n_seg]       this rank's segments (global indices, increasing)
     x1        float64[n_pts]     x1 of this rank's Gauss points [m]
     wq        float64[n_pts]     Gauss weight × half segment length [m]
     shape     float64[4, 2]      linear shape functions at the Gauss points
@@ -56,7 +60,7 @@ class Geometry(NamedTuple):
     """
 
     x1_nodes: np.ndarray
-    segments: tuple
+    segments: np.ndarray
     x1: np.ndarray
     wq: np.ndarray
     shape: np.ndarray
@@ -108,17 +112,18 @@ def build_geometry(V, facet_tags, template: PETSc.Vec) -> Geometry:
     g_lo = lo[:, 2].astype(np.int64)
     g_up = up[:, 2].astype(np.int64)
 
-    # deal segments out in contiguous chunks along x1
+    # deal segments out in blocks of SEG_BLOCK, round-robin along x1, so that every
+    # rank gets a share of the sliding region near the struck edge (load balance)
     nseg = len(x1n) - 1
-    first = nseg * comm.rank // comm.size
-    stop = nseg * (comm.rank + 1) // comm.size
-    nodes = np.arange(first, stop + 1) if stop > first else np.zeros(0, dtype=np.int64)
-    # gathered work vector: [lower nodes of the chunk, upper nodes of the chunk], 2 comps each
+    segs = np.flatnonzero((np.arange(nseg) // SEG_BLOCK) % comm.size == comm.rank)
+    nodes = np.unique(np.concatenate([segs, segs + 1]))
+    # gathered work vector: [lower nodes, upper nodes], 2 comps each
     gnodes = np.concatenate([g_lo[nodes], g_up[nodes]])
     gidx = (bs * gnodes[:, None] + np.arange(bs)[None, :]).ravel().astype(PETSc.IntType)
     n_loc = len(nodes)
-    k = np.arange(stop - first)
-    seg_w = np.column_stack([k, k + 1, n_loc + k, n_loc + k + 1]).astype(np.int32) * bs
+    a = np.searchsorted(nodes, segs)
+    b = np.searchsorted(nodes, segs + 1)
+    seg_w = np.column_stack([a, b, n_loc + a, n_loc + b]).astype(np.int32) * bs
 
     work = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
     force = work.duplicate()
@@ -126,11 +131,11 @@ def build_geometry(V, facet_tags, template: PETSc.Vec) -> Geometry:
     scatter = PETSc.Scatter().create(template, is_from, work, None)
 
     shape = np.column_stack([0.5 * (1 - GAUSS_XI), 0.5 * (1 + GAUSS_XI)])
-    xa, xb = x1n[first:stop], x1n[first + 1 : stop + 1]
+    xa, xb = x1n[segs], x1n[segs + 1]
     half = 0.5 * (xb - xa)
     x1 = (0.5 * (xa + xb)[:, None] + half[:, None] * GAUSS_XI[None, :]).ravel()
     wq = (half[:, None] * GAUSS_W[None, :]).ravel()
-    return Geometry(x1n, (first, stop), x1, wq, shape, seg_w, scatter, work, force, comm)
+    return Geometry(x1n, segs, x1, wq, shape, seg_w, scatter, work, force, comm)
 
 
 class Points(NamedTuple):
