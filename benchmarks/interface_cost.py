@@ -6,13 +6,16 @@
 # timers: `bulk` (PETSc MatMult K·u), `interface` (PETSc gather of the partner
 # dofs, the numba kernel with the law's adaptive sub-steps, reverse
 # scatter-add) and `update` (the fused leapfrog pass, the struck edge and its
-# work).  Prints µs per step per phase and interface / K·u.
+# work).  Prints µs per step per phase, interface / K·u, and the whole step
+# against a bare MatMult loop on the same matrix in the same process.
+# `--law stuck` gives the elastic interface without friction.
 #
-# Run: `mpirun -n 2 .venv/bin/python benchmarks/interface_cost.py [--preset reference]`
+# Run: `mpirun -n 2 .venv/bin/python benchmarks/interface_cost.py [--preset reference] [--law stuck]`
 
 import argparse
 import json
 import logging
+import time
 
 from mpi4py import MPI
 
@@ -21,23 +24,35 @@ from fricfem import config, run, solver
 logging.getLogger().setLevel(logging.WARNING)
 ap = argparse.ArgumentParser()
 ap.add_argument("--preset", default="reference")
+ap.add_argument("--law", default="povirk_needleman")
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
-scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset='{a.preset}'"])
+scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset='{a.preset}'", f"friction.law='{a.law}'",
+                              "friction.params={}"])
 _, model = run.build_model(scene, comm)
 state = solver.State(model)
 for _ in solver.evolve(model, state, 20e-6):
     pass
 timers, n, nsub, npts = {}, 0, 0, 0
 while state.t < 32e-6:
-    solver.step(model, state, timers=timers)
+    solver.step_two_pass(model, state, timers=timers)
     n += 1
     nsub += int(model.interface.points.nsub.sum())
     npts += len(model.interface.points.nsub)
 slowest = {k: comm.allreduce(v, op=MPI.MAX) for k, v in sorted(timers.items())}
+# a bare K·u loop on the same matrix and vectors, for the ratio
+y = model.K.createVecRight()
+comm.Barrier()
+t0 = time.perf_counter()
+for _ in range(n):
+    model.K.mult(state.u, y)
+comm.Barrier()
+bare = time.perf_counter() - t0
 res = {"ranks": comm.size, "preset": a.preset, "steps": n,
        **{f"{k}_us": 1e6 * v / n for k, v in slowest.items()},
        "interface_over_bulk": slowest["interface"] / slowest["bulk"],
+       "step_us": 1e6 * sum(slowest.values()) / n, "bare_matmult_us": 1e6 * bare / n,
+       "step_over_bare_matmult": sum(slowest.values()) / bare, "law": a.law, "dofs": 2 * model.V.dofmap.index_map.size_global,
        "mean_substeps_per_point_step": comm.allreduce(nsub, op=MPI.SUM) / comm.allreduce(npts, op=MPI.SUM)}
 if comm.rank == 0:
     print(json.dumps(res, indent=2))

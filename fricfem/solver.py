@@ -4,15 +4,15 @@ Discretisation (as in the paper): linear triangles, lumped mass, explicit
 central differences (Newmark β = 0, γ = ½; Belytschko et al. 1976), stiffness
 ``K`` assembled once.  With ``f = K u − F_int(u)`` the step is
 
-    v^{n+½} = v^{n−½} − dt M⁻¹ f(u^n)          (one fused numba pass:
-    u^{n+1} = u^n + dt v^{n+½}                   reads u, v, f, M⁻¹ once)
+    v^{n+½} = v^{n−½} − dt M⁻¹ f(u^n)          (one sweep over the rows of K,
+    u^{n+1} = u^n + dt v^{n+½}                   :mod:`fricfem.fused`)
 
 and on the impacted edge u1 = U(t) = ∫V is prescribed (zero shear traction
 there).  The stable step is ``dt = safety · 2/√λmax(M⁻¹(K + K_int))`` with
 λmax from a power iteration that includes the interface springs.
 
-Verbs: :func:`build` (assemble once), :func:`initial_state`, :func:`step`,
-:func:`evolve` (generator), :func:`energy`.
+Verbs: :func:`build` (assemble once), :func:`step` (and its two-pass reference
+:func:`step_two_pass`), :func:`evolve` (generator).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from . import fused as fused_mod
 from . import interface as iface_mod
 from .loading import ImpactPulse
 from .material import Material
@@ -61,6 +62,7 @@ class Model(NamedTuple):
     dt: float  # time step [s]
     dt_crit: float  # 2/√λmax [s]
     comm: object
+    fused: object = None  # fused_mod.FusedBulk: the one-pass step (set by build)
 
 
 class State:
@@ -75,6 +77,7 @@ class State:
         self.u = model.K.createVecRight()
         self.v = model.K.createVecRight()
         self.f = model.K.createVecRight()
+        self.u_next = model.K.createVecRight()  # u^{n+1} is written here, then swapped with u
         self.t = 0.0
         self.t_interface = 0.0  # time of the interface state (tractions, slip rates): t^n of the last step
         self.n = 0
@@ -201,12 +204,38 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
-    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm)
+    model = Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm)
+    return model._replace(fused=fused_mod.FusedBulk.build(model))
 
 
-def step(model: Model, state: State, energy: dict | None = None, timers: dict | None = None) -> None:
-    """Advance ``state`` by one step ``model.dt``.  If ``energy`` is a dict it is
-    filled with the energies at t^n (collective).  If ``timers`` is a dict, the
+def step(model: Model, state: State, energy: dict | None = None) -> None:
+    """Advance ``state`` by one step ``model.dt``: K u, the interface forces, the
+    update and the struck edge in one sweep over the rows of K
+    (:mod:`fricfem.fused`).  If ``energy`` is a dict it is filled with the
+    energies at t^n (collective)."""
+    if energy is not None:
+        v_old = state.v.array_r.copy()
+    uku, work = model.fused.advance(state.u, state.u_next, state.v, state.u_imp_prev, state.t)
+    state.u, state.u_next = state.u_next, state.u  # u^{n+1}; u^n's buffer takes the next output
+    state.work_ext += work
+    if energy is not None:
+        kinetic = 0.5 * float(np.dot(model.mass * v_old, state.v.array_r))
+        loc = np.array([kinetic, state.work_ext, 0.5 * uku])
+        tot = np.zeros(3)
+        model.comm.Allreduce(loc, tot, op=MPI.SUM)
+        energy.update(model.interface.energy())
+        energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1])
+        energy["balance_error"] = (
+            energy["kinetic"] + energy["strain"] + energy["interface_work"] - energy["external"]
+        )
+    state.t_interface = state.t
+    state.t += model.dt
+    state.n += 1
+
+
+def step_two_pass(model: Model, state: State, energy: dict | None = None, timers: dict | None = None) -> None:
+    """The step as two passes, f = K u − F_int (PETSc) then the update: the reference
+    for :func:`step`, and the one with phase timers.  If ``timers`` is a dict, the
     seconds spent in the phases ``bulk`` (K·u), ``interface`` (gather, kernel,
     scatter-add) and ``update`` (leapfrog pass, struck edge, work) are added to it."""
     dt = model.dt

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Every benchmark of fricfem, as `make bench` runs it (2 MPI ranks; results in benchmarks/results/).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+MPI="mpirun -n 2"
+PY=.venv/bin/python
+$PY benchmarks/throughput.py                         # serial
+$MPI $PY benchmarks/throughput.py                    # 2 ranks
+$MPI $PY benchmarks/interface_cost.py --law stuck
+$MPI $PY benchmarks/interface_cost.py
+$MPI $PY benchmarks/dt_convergence.py
+$PY benchmarks/end_to_end.py
+$MPI $PY benchmarks/stability.py
+$MPI $PY benchmarks/work_precision.py --quick

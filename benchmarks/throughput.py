@@ -1,0 +1,265 @@
+# # Throughput of the time step
+#
+# How long one explicit step takes, against the cost of the one operation it
+# cannot avoid: the stiffness product ``K u``.  For each mesh and rank count:
+#
+# * ``two_pass``: :func:`fricfem.solver.step` as it was, ``f = K u`` (PETSc),
+#   interface forces added into ``f``, then the update pass
+#   ``v −= dt M⁻¹ f; u += dt v`` and the struck edge;
+# * ``fused``: :class:`fricfem.fused.FusedBulk`, one sweep over the rows of
+#   ``K`` that updates ``v`` and ``u`` as each row's ``(K u)_i`` is done;
+# * ``matmult_aij``: a bare PETSc ``K.mult(u, f)`` (AIJ, I-nodes off: the
+#   matrix the solver assembles); ``matmult_sell``: the same in SELL storage;
+# * ``interface``: the interface kernel with its two scatters, as timed inside
+#   the fused step.
+#
+# Derived: the ratio step / MatMult (AIJ; the target is <= 1.15), million dof
+# updates per second, and the 1 → 2 rank speedup when both are in the results.
+#
+# Run (each run adds its rank count to ``results/throughput.json`` and redraws
+# ``results/throughput.png``):
+#
+#     mpirun -n 1 .venv/bin/python benchmarks/throughput.py
+#     mpirun -n 2 .venv/bin/python benchmarks/throughput.py
+#
+# ``--smoke`` takes the coarse mesh and a few steps (tests).  Timing: both
+# steps start from the same snapshot of a warmed-up run (so they integrate the
+# same steps), ``time.perf_counter`` between barriers, median of the repeats,
+# the variants interleaved within each repeat; the ratio step / MatMult is
+# taken within each repeat (the same load from other processes on both) and
+# its median reported.
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fricfem import config, run, solver
+from fricfem.fused import FusedBulk
+
+HERE = Path(__file__).resolve().parent
+TARGET_RATIO = 1.15  # step / MatMult (issue "Fast and accurate")
+TARGET_SPEEDUP = 1.8  # fine mesh, 1 -> 2 ranks
+
+
+# ## Steps as the solver takes them
+#
+# ``two_pass`` is the solver's step before the fused sweep (kept as
+# ``solver.step_two_pass`` once ``solver.step`` is fused).  ``fused_step`` is
+# the fused step with the bookkeeping of ``solver.step`` (no energies).
+
+
+def two_pass_step():
+    return getattr(solver, "step_two_pass", solver.step)
+
+
+def fused_step(model, fused, state):
+    uku, work = fused.advance(state.u, state.u_next, state.v, state.u_imp_prev, state.t)
+    state.u, state.u_next = state.u_next, state.u
+    state.work_ext += work
+    state.t_interface = state.t
+    state.t += model.dt
+    state.n += 1
+
+
+class Snapshot:
+    """u, v, t and the interface points of a state, to restart timings from."""
+
+    def __init__(self, model, state):
+        self.model = model
+        self.u = state.u.array_r.copy()
+        self.v = state.v.array_r.copy()
+        self.t, self.n, self.work = state.t, state.n, state.work_ext
+        self.prev = np.array(state.u_imp_prev, copy=True)
+        self.points = [a.copy() for a in model.interface.points]
+
+    def state(self):
+        """A new state equal to the snapshot (the interface points are reset too)."""
+        st = solver.State(self.model)
+        if not hasattr(st, "u_next"):
+            st.u_next = self.model.K.createVecRight()
+        st.u.array[:] = self.u
+        st.v.array[:] = self.v
+        st.t, st.n, st.work_ext = self.t, self.n, self.work
+        st.u_imp_prev = self.prev.copy()
+        for a, s in zip(self.model.interface.points, self.points):
+            a[...] = s
+        return st
+
+
+def timed(comm, fn, n):
+    """Seconds per call of ``fn`` over ``n`` calls, between barriers."""
+    comm.Barrier()
+    t0 = time.perf_counter()
+    for _ in range(n):
+        fn()
+    comm.Barrier()
+    return (time.perf_counter() - t0) / n
+
+
+# ## One mesh
+
+
+def measure(preset: str, comm, steps: int, repeats: int, warmup: int) -> dict:
+    scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset={preset}"])
+    _, model = run.build_model(scene, comm)
+    dofs = model.K.getSize()[0]
+    fused = FusedBulk.build(model)
+    # warm up (JIT, and into the sliding phase), then snapshot
+    st = solver.State(model)
+    if not hasattr(st, "u_next"):
+        st.u_next = model.K.createVecRight()
+    step2 = two_pass_step()
+    for _ in range(warmup):
+        step2(model, st)
+    snap = Snapshot(model, st)
+    fused_step(model, fused, snap.state())  # compile the fused kernels
+
+    K = model.K
+    K_sell = K.convert(PETSc.Mat.Type.SELL, out=PETSc.Mat())
+    x = K.createVecRight()
+    x.array[:] = snap.u
+    y = K.createVecRight()
+
+    us = {k: [] for k in ("two_pass", "fused", "matmult_aij", "matmult_sell", "interface", "sweep", "wait")}
+    for _ in range(repeats):
+        st = snap.state()
+        us["two_pass"].append(1e6 * timed(comm, lambda: step2(model, st), steps))
+        st = snap.state()
+        fused.seconds = dict.fromkeys(fused.seconds, 0.0)
+        us["fused"].append(1e6 * timed(comm, lambda: fused_step(model, fused, st), steps))
+        phase = {k: comm.allreduce(v / steps, op=MPI.MAX) for k, v in fused.seconds.items()}
+        us["interface"].append(1e6 * phase["interface"])
+        us["sweep"].append(1e6 * phase["sweep"])
+        us["wait"].append(1e6 * phase["wait"])
+        us["matmult_aij"].append(1e6 * timed(comm, lambda: K.mult(x, y), steps))
+        us["matmult_sell"].append(1e6 * timed(comm, lambda: K_sell.mult(x, y), steps))
+    med = {k: float(np.median(v)) for k, v in us.items()}
+    aij = np.array(us["matmult_aij"])
+    out = {
+        "mesh": preset, "ranks": comm.size, "dofs": int(dofs), "steps": steps, "repeats": repeats,
+        "interface_points": int(comm.allreduce(len(model.interface.geometry.x1))),
+        "us_per_step": med,
+        "us_per_step_min": {k: float(np.min(v)) for k, v in us.items()},
+        "us_all": {k: [float(t) for t in v] for k, v in us.items()},
+        # each repeat's step against the MatMult timed right after it (same load), median over repeats
+        "ratio_two_pass": float(np.median(np.array(us["two_pass"]) / aij)),
+        "ratio_fused": float(np.median(np.array(us["fused"]) / aij)),
+        "mdof_updates_per_s": {k: dofs / med[k] for k in ("two_pass", "fused", "matmult_aij")},
+    }
+    K_sell.destroy()
+    return out
+
+
+# ## Results file, table and figure
+
+
+def speedups(runs: dict) -> dict:
+    """1 → 2 rank speedup per mesh and variant, where both runs are present."""
+    out = {}
+    for key, r1 in runs.items():
+        mesh_name, ranks = key.rsplit("/", 1)
+        r2 = runs.get(f"{mesh_name}/2")
+        if ranks == "1" and r2 is not None:
+            out[mesh_name] = {k: r1["us_per_step"][k] / r2["us_per_step"][k]
+                              for k in ("two_pass", "fused", "matmult_aij")}
+            out[mesh_name]["fused_from_min"] = r1["us_per_step_min"]["fused"] / r2["us_per_step_min"]["fused"]
+    return out
+
+
+def table(runs: dict, speed: dict) -> str:
+    head = (f"{'mesh':>10} {'ranks':>5} {'dofs':>8} | {'two-pass':>9} {'fused':>8} {'AIJ':>8} {'SELL':>8} | "
+            f"{'iface':>7} {'sweep':>7} {'wait':>6} | {'2p/AIJ':>6} {'fu/AIJ':>6} | {'Mdof/s':>7}")
+    lines = [head, "-" * len(head)]
+    for r in runs.values():
+        t = r["us_per_step"]
+        lines.append(
+            f"{r['mesh']:>10} {r['ranks']:>5} {r['dofs']:>8} | {t['two_pass']:9.1f} {t['fused']:8.1f} "
+            f"{t['matmult_aij']:8.1f} {t['matmult_sell']:8.1f} | {t['interface']:7.1f} {t['sweep']:7.1f} "
+            f"{t['wait']:6.1f} | {r['ratio_two_pass']:6.2f} {r['ratio_fused']:6.2f} | "
+            f"{r['mdof_updates_per_s']['fused']:7.0f}")
+    lines.append("µs per step, median of the repeats; iface, sweep, wait: the phases of the fused step "
+                 "(slowest rank)")
+    lines.append(f"target: fused / AIJ <= {TARGET_RATIO}")
+    for mesh_name, s in speed.items():
+        lines.append(f"1 -> 2 ranks, {mesh_name}: fused {s['fused']:.2f}x, two-pass {s['two_pass']:.2f}x, "
+                     f"MatMult {s['matmult_aij']:.2f}x (target {TARGET_SPEEDUP} on the fine mesh)")
+    return "\n".join(lines)
+
+
+def figure(runs: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = list(runs)
+    series = [("two_pass", "step, two-pass"), ("fused", "step, fused"), ("matmult_aij", "MatMult AIJ"),
+              ("matmult_sell", "MatMult SELL"), ("interface", "interface kernel")]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [3, 2]})
+    w = 0.8 / len(series)
+    xs = np.arange(len(keys))
+    for k, (name, label) in enumerate(series):
+        ax.bar(xs + (k - 2) * w, [runs[key]["us_per_step"][name] for key in keys], w, label=label)
+    ax.set_xticks(xs, [f"{runs[k]['mesh']}\n{runs[k]['ranks']} rank(s)" for k in keys])
+    ax.set_ylabel("µs per step")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8)
+    ax.set_title("time per step")
+    bx.bar(xs - 0.2, [runs[k]["ratio_two_pass"] for k in keys], 0.4, label="two-pass")
+    bx.bar(xs + 0.2, [runs[k]["ratio_fused"] for k in keys], 0.4, label="fused")
+    bx.axhline(TARGET_RATIO, color="k", ls="--", lw=1, label=f"target {TARGET_RATIO}")
+    bx.axhline(1.0, color="grey", lw=0.5)
+    bx.set_xticks(xs, [f"{runs[k]['mesh']}\n{runs[k]['ranks']}" for k in keys])
+    bx.set_ylabel("step / MatMult (AIJ)")
+    bx.legend(fontsize=8)
+    bx.set_title("cost of a step in MatMults")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
+    ap = argparse.ArgumentParser(description="Time per step of fricfem against a bare MatMult.")
+    ap.add_argument("--meshes", nargs="+", default=["reference", "fine"])
+    ap.add_argument("--steps", type=int, default=300, help="timed steps per repeat")
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--warmup", type=int, default=100, help="steps before the snapshot")
+    ap.add_argument("--smoke", action="store_true", help="coarse mesh, a few steps")
+    ap.add_argument("--out", type=Path, default=None, help="default results/ (results/smoke/ with --smoke)")
+    args = ap.parse_args(argv)
+    if args.smoke:
+        args.meshes, args.steps, args.repeats, args.warmup = ["coarse"], 10, 2, 5
+    if args.out is None:
+        args.out = HERE / "results" / ("smoke" if args.smoke else "")
+
+    results = {}
+    for preset in args.meshes:
+        results[f"{preset}/{comm.size}"] = measure(preset, comm, args.steps, args.repeats, args.warmup)
+    data = None
+    if comm.rank == 0:
+        args.out.mkdir(parents=True, exist_ok=True)
+        path = args.out / "throughput.json"
+        data = json.loads(path.read_text()) if path.exists() else {}
+        data.setdefault("runs", {}).update(results)
+        data["runs"] = dict(sorted(data["runs"].items(), key=lambda kv: (kv[1]["dofs"], kv[1]["ranks"])))
+        data["speedup_1_to_2"] = speedups(data["runs"])
+        data["machine"] = {"node": platform.node(), "processor": platform.processor(),
+                           "python": sys.version.split()[0], "petsc": ".".join(map(str, PETSc.Sys.getVersion()))}
+        data["target"] = {"ratio": TARGET_RATIO, "speedup_fine": TARGET_SPEEDUP}
+        path.write_text(json.dumps(data, indent=2))
+        figure(data["runs"], args.out / "throughput.png")
+        print(table(data["runs"], data["speedup_1_to_2"]))
+    return comm.bcast(data, root=0)
+
+
+if __name__ == "__main__":
+    main()

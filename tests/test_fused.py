@@ -1,0 +1,171 @@
+"""The fused bulk step (:mod:`fricfem.fused`) against the two-pass step, and the
+throughput benchmark in smoke mode.  Run under ``mpirun -n 2``."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dolfinx import mesh as dmesh
+from mpi4py import MPI
+
+from fricfem import config, run, solver
+from fricfem.fused import FusedBulk
+from fricfem.loading import ImpactPulse
+from fricfem.material import Material
+
+ROOT = Path(__file__).resolve().parents[1]
+RTOL = 1e-12  # round-off
+
+
+def two_pass_step():
+    """The solver's two-pass step (``step_two_pass`` once ``step`` is the fused one)."""
+    return getattr(solver, "step_two_pass", solver.step)
+
+
+def fused_step(model, fused, state):
+    """What ``solver.step`` does with the fused sweep (no energies); returns u·Ku."""
+    if not hasattr(state, "u_next"):
+        state.u_next = model.K.createVecRight()
+    uku, work = fused.advance(state.u, state.u_next, state.v, state.u_imp_prev, state.t)
+    state.u, state.u_next = state.u_next, state.u
+    state.work_ext += work
+    state.t_interface = state.t
+    state.t += model.dt
+    state.n += 1
+    return uku
+
+
+def rel_diff(a, b, comm) -> float:
+    num = comm.allreduce(float(np.abs(a - b).max(initial=0.0)), op=MPI.MAX)
+    den = comm.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
+    return num / den
+
+
+def test_fused_step_equals_two_pass_step_while_sliding(comm):
+    """Coarse case I at V_imp = 10 m/s: over 100 steps (the interface slides near
+    the struck edge) the fused step gives the same u, v, interface tractions,
+    strain energy and external work as the two-pass step, to round-off."""
+    scene = config.load("case1", ["loading.v_imp=10", "mesh.preset=coarse"])
+    _, model = run.build_model(scene, comm)
+    points = model.interface.points
+    start = [a.copy() for a in points]
+    every, nsteps = 25, 100
+
+    ref = solver.State(model)
+    step = two_pass_step()
+    strain_ref = []
+    for n in range(nsteps):
+        e = {} if n % every == 0 else None
+        step(model, ref, e)
+        if e is not None:
+            strain_ref.append(e["strain"])
+    ref_points = [a.copy() for a in points]
+
+    for a, s in zip(points, start):
+        a[...] = s
+    st = solver.State(model)
+    fused = FusedBulk.build(model)
+    strain = []
+    for n in range(nsteps):
+        uku = fused_step(model, fused, st)
+        if n % every == 0:
+            strain.append(0.5 * comm.allreduce(uku))
+
+    assert comm.allreduce(int((points.slip > 0).sum())) > 0, "the interface should slide"
+    assert rel_diff(ref.u.array_r, st.u.array_r, comm) <= RTOL
+    assert rel_diff(ref.v.array_r, st.v.array_r, comm) <= RTOL
+    for name in ("Ts", "Tn", "slip", "slip_rate"):
+        i = points._fields.index(name)
+        assert rel_diff(ref_points[i], points[i], comm) <= RTOL, name
+    np.testing.assert_allclose(strain, strain_ref, rtol=RTOL)
+    w_ref, w = comm.allreduce(ref.work_ext), comm.allreduce(st.work_ext)
+    assert w_ref > 0 and abs(w - w_ref) <= RTOL * abs(w_ref)
+    assert st.t == ref.t
+
+
+def test_fused_rows_with_off_rank_columns(comm):
+    """A unit square split over the ranks (rows with off-rank columns), no
+    interface, x1 prescribed on x = 0: the fused step equals ``K.mult`` + update
+    + struck edge, written out here."""
+    msh = dmesh.create_unit_square(comm, 12, 10)
+    V = solver.function_space(msh)
+    mat = Material()
+    K = solver.stiffness(V, mat)
+    mass = solver.lumped_mass(V, mat.rho)
+    facets = dmesh.locate_entities_boundary(msh, 1, lambda x: np.isclose(x[0], 0.0))
+    from dolfinx import fem
+
+    dofs = fem.locate_dofs_topological(V.sub(0), 1, facets)
+    dofs = np.sort(dofs[dofs < V.dofmap.index_map.size_local * 2]).astype(np.int32)
+    pulse = ImpactPulse(v_imp=5.0, t_rise=1e-6)
+    impact = solver.Impact(dofs, mass[dofs].copy(), pulse)
+    dt = 1e-7
+    fused = FusedBulk(K, dt / mass, dt, None, impact)
+    if comm.size > 1:
+        assert comm.allreduce(len(fused.rows.ghost)) > 0
+
+    rng = np.random.default_rng(comm.rank)
+    u, v, f = K.createVecRight(), K.createVecRight(), K.createVecRight()
+    u.array[:] = 1e-6 * rng.standard_normal(len(mass))
+    v.array[:] = rng.standard_normal(len(mass))
+    u2, v2, u_next = u.copy(), v.copy(), K.createVecRight()
+    prev, prev2 = np.zeros(len(dofs)), np.zeros(len(dofs))
+    work = work2 = 0.0
+    t = 0.0
+    for _ in range(20):
+        # reference: the two passes of solver.step
+        K.mult(u, f)
+        f_imp = f.array_r[dofs]
+        v_old = v.array_r[dofs]
+        solver.leapfrog_update(u.array, v.array, f.array_r, dt / mass, dt)
+        a0, a1 = pulse.displacement(t), pulse.displacement(t + dt)
+        u.array[dofs] = a1
+        v.array[dofs] = (a1 - a0) / dt
+        react = impact.mass * ((a1 - a0) / dt - v_old) / dt + f_imp
+        work += float(np.dot(react, 0.5 * (a1 - prev)))
+        prev = np.full(len(dofs), a0)
+        # fused
+        _, w = fused.advance(u2, u_next, v2, prev2, t)
+        u2, u_next = u_next, u2
+        work2 += w
+        t += dt
+    assert rel_diff(u.array_r, u2.array_r, comm) <= RTOL
+    assert rel_diff(v.array_r, v2.array_r, comm) <= RTOL
+    w_ref, w = comm.allreduce(work), comm.allreduce(work2)
+    assert abs(w - w_ref) <= RTOL * abs(w_ref)
+
+
+def test_fused_rejects_a_matrix_without_node_blocks(comm):
+    """A scalar P1 matrix is not made of 2x2 node blocks."""
+    import ufl
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+
+    msh = dmesh.create_unit_square(comm, 3, 3)
+    W = fem.FunctionSpace(msh, ("Lagrange", 1))
+    a = fem.form(ufl.inner(ufl.grad(ufl.TrialFunction(W)), ufl.grad(ufl.TestFunction(W))) * ufl.dx)
+    A = fem_petsc.assemble_matrix(a)
+    A.assemble()
+    from fricfem.fused import block_rows
+
+    with pytest.raises(ValueError, match="2x2|splits a node"):
+        block_rows(A)
+
+
+def test_throughput_benchmark_smoke(comm, tmp_dir_shared):
+    """benchmarks/throughput.py --smoke writes its table, JSON and figure."""
+    spec = importlib.util.spec_from_file_location("throughput", ROOT / "benchmarks" / "throughput.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    data = bench.main(["--smoke", "--out", str(tmp_dir_shared)], comm)
+    entry = data["runs"][f"coarse/{comm.size}"]
+    for key in ("two_pass", "fused", "matmult_aij", "matmult_sell", "interface"):
+        assert entry["us_per_step"][key] > 0, key
+    assert np.isfinite(entry["ratio_fused"])
+    if comm.rank == 0:
+        assert json.loads((tmp_dir_shared / "throughput.json").read_text())["runs"]
+        assert (tmp_dir_shared / "throughput.png").stat().st_size > 0
