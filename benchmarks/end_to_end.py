@@ -374,7 +374,7 @@ def table(doc: dict) -> str:
     lines.append(f"| others' share of the CPUs meanwhile (median) | {_share(doc['command']['cold'])} | "
                  f"{_share(doc['command']['warm'])} |")
     pc, pw = doc["probe"]["cold_summary"], doc["probe"]["warm_summary"]
-    lines += ["", f"| phase (probe: JIT separated; mean over ranks) | cold [s] | warm [s] |", "|---|---|---|"]
+    lines += ["", "| phase (probe: JIT separated; mean over ranks) | cold [s] | warm [s] |", "|---|---|---|"]
     for ph in pc["median"]:
         lines.append(f"| {ph} | {pc['median'][ph]:.2f} ({pc['min'][ph]:.2f}) | "
                      f"{pw['median'][ph]:.2f} ({pw['min'][ph]:.2f}) |")

@@ -3,28 +3,48 @@
 # Case I's geometry struck at 10 m/s on the reference mesh, advanced to 20 µs
 # (the interface slides crack-like over ~20 mm), then the best of 5 × 100
 # calls of `solver.step` (fused: K·u, interface, update, struck edge) against
-# 5 × 100 bare `K.mult` on the same matrix and vector.  The law is an argument:
-# `stuck` (elastic interface, no friction) or `povirk_needleman`.
+# the best of 5 × 100 bare `K.mult` on the same matrix and vector.  The law is
+# an argument: `stuck` (elastic interface, no friction) or `povirk_needleman`.
 #
 # Run: `[mpirun -n 2] .venv/bin/python benchmarks/step_vs_matmult.py stuck`
-import time, json, logging, sys
-logging.getLogger().setLevel(logging.WARNING)
+
+import argparse
+import logging
+import time
+
 from mpi4py import MPI
+
 from fricfem import config, run, solver
+
+logging.getLogger().setLevel(logging.WARNING)
+ap = argparse.ArgumentParser()
+ap.add_argument("law", nargs="?", default="stuck", help="stuck or povirk_needleman")
+ap.add_argument("--preset", default="reference")
+a = ap.parse_args()
 comm = MPI.COMM_WORLD
-law = sys.argv[1]
-scene = config.load("case1", ["loading.v_imp=10", f"friction.law='{law}'", "friction.params={}"])
+scene = config.load("case1", ["loading.v_imp=10", f"friction.law='{a.law}'", "friction.params={}",
+                              f"mesh.preset='{a.preset}'"])
 _, model = run.build_model(scene, comm)
-st = solver.State(model)
-for _ in solver.evolve(model, st, 20e-6): pass
-res = {}
-for name in ("step", "matmult"):
-    best = 1e9
-    for rep in range(5):
-        comm.Barrier(); t0 = time.perf_counter()
-        for i in range(100):
-            if name == "step": solver.step(model, st)
-            else: model.K.mult(st.u, st.f)
-        comm.Barrier(); best = min(best, (time.perf_counter() - t0) / 100)
-    res[name] = best * 1e6
-if comm.rank == 0: print(law, comm.size, "ranks: step %.0f us, bare MatMult %.0f us, ratio %.2f" % (res["step"], res["matmult"], res["step"] / res["matmult"]))
+state = solver.State(model)
+for _ in solver.evolve(model, state, 20e-6):
+    pass
+
+
+def best_of(fn, repeats=5, calls=100):
+    """Best mean seconds per call over ``repeats`` timed loops (collective)."""
+    best = float("inf")
+    for _ in range(repeats):
+        comm.Barrier()
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            fn()
+        comm.Barrier()
+        best = min(best, (time.perf_counter() - t0) / calls)
+    return best
+
+
+t_step = best_of(lambda: solver.step(model, state))
+t_mat = best_of(lambda: model.K.mult(state.u, state.f))
+if comm.rank == 0:
+    print(f"{a.law}, {a.preset}, {comm.size} rank(s): step {1e6 * t_step:.0f} µs, bare MatMult "
+          f"{1e6 * t_mat:.0f} µs, ratio {t_step / t_mat:.2f}")

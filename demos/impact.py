@@ -31,7 +31,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")

@@ -6,7 +6,6 @@ for no fields never compiles or evaluates the stress expression.
 
 from __future__ import annotations
 
-import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.io import XDMFFile
@@ -51,14 +50,7 @@ class FieldWriter:
         self._fill(self.v, state.v)
         self.s.interpolate(self.expr)
         for fn in (self.u, self.v, self.s):
-            self.file.write_function(fn, state.t)
-        self.file.flush() if hasattr(self.file, "flush") else None
+            self.file.write_function(fn, state.t)  # dolfinx rewrites the .xdmf on every write
 
     def close(self) -> None:
         self.file.close()
-
-
-def owned_dof_coordinates(V) -> np.ndarray:
-    """float64[n_owned_nodes, 2] coordinates of the owned dof nodes."""
-    n = V.dofmap.index_map.size_local
-    return V.tabulate_dof_coordinates()[:n, :2]

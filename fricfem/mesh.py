@@ -18,7 +18,6 @@ Tag names (see :data:`TAGS`) are the only way code refers to boundaries.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from typing import NamedTuple
 
@@ -296,7 +295,3 @@ def info(pm: PlateMesh) -> dict:
         "area_m2": comm.allreduce(float(area.sum()), op=MPI.SUM),
         "spec": dataclasses.asdict(pm.spec),
     }
-
-
-def info_json(pm: PlateMesh) -> str:
-    return json.dumps(info(pm), indent=2)
