@@ -3,10 +3,10 @@
 # How long one explicit step takes, against the cost of the one operation it
 # cannot avoid: the stiffness product ``K u``.  For each mesh and rank count:
 #
-# * ``two_pass``: :func:`fricfem.solver.step` as it was, ``f = K u`` (PETSc),
+# * ``two_pass``: :func:`fricfem.solver.step_two_pass`, ``f = K u`` (PETSc),
 #   interface forces added into ``f``, then the update pass
 #   ``v −= dt M⁻¹ f; u += dt v`` and the struck edge;
-# * ``fused``: :class:`fricfem.fused.FusedBulk`, one sweep over the rows of
+# * ``fused``: :func:`fricfem.solver.step` (:class:`fricfem.fused.FusedBulk`), one sweep over the rows of
 #   ``K`` that updates ``v`` and ``u`` as each row's ``(K u)_i`` is done;
 # * ``matmult_aij``: a bare PETSc ``K.mult(u, f)`` (AIJ, I-nodes off: the
 #   matrix the solver assembles); ``matmult_sell``: the same in SELL storage;
@@ -43,31 +43,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fricfem import config, run, solver
-from fricfem.fused import FusedBulk
 
 HERE = Path(__file__).resolve().parent
 TARGET_RATIO = 1.15  # step / MatMult (issue "Fast and accurate")
 TARGET_SPEEDUP = 1.8  # fine mesh, 1 -> 2 ranks
-
-
-# ## Steps as the solver takes them
-#
-# ``two_pass`` is the solver's step before the fused sweep (kept as
-# ``solver.step_two_pass`` once ``solver.step`` is fused).  ``fused_step`` is
-# the fused step with the bookkeeping of ``solver.step`` (no energies).
-
-
-def two_pass_step():
-    return getattr(solver, "step_two_pass", solver.step)
-
-
-def fused_step(model, fused, state):
-    uku, work = fused.advance(state.u, state.u_next, state.v, state.u_imp_prev, state.t)
-    state.u, state.u_next = state.u_next, state.u
-    state.work_ext += work
-    state.t_interface = state.t
-    state.t += model.dt
-    state.n += 1
 
 
 class Snapshot:
@@ -84,8 +63,6 @@ class Snapshot:
     def state(self):
         """A new state equal to the snapshot (the interface points are reset too)."""
         st = solver.State(self.model)
-        if not hasattr(st, "u_next"):
-            st.u_next = self.model.K.createVecRight()
         st.u.array[:] = self.u
         st.v.array[:] = self.v
         st.t, st.n, st.work_ext = self.t, self.n, self.work
@@ -112,16 +89,13 @@ def measure(preset: str, comm, steps: int, repeats: int, warmup: int) -> dict:
     scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset={preset}"])
     _, model = run.build_model(scene, comm)
     dofs = model.K.getSize()[0]
-    fused = FusedBulk.build(model)
+    fused = model.fused
     # warm up (JIT, and into the sliding phase), then snapshot
     st = solver.State(model)
-    if not hasattr(st, "u_next"):
-        st.u_next = model.K.createVecRight()
-    step2 = two_pass_step()
     for _ in range(warmup):
-        step2(model, st)
+        solver.step_two_pass(model, st)
     snap = Snapshot(model, st)
-    fused_step(model, fused, snap.state())  # compile the fused kernels
+    solver.step(model, snap.state())  # compile the fused kernels
 
     K = model.K
     K_sell = K.convert(PETSc.Mat.Type.SELL, out=PETSc.Mat())
@@ -132,10 +106,10 @@ def measure(preset: str, comm, steps: int, repeats: int, warmup: int) -> dict:
     us = {k: [] for k in ("two_pass", "fused", "matmult_aij", "matmult_sell", "interface", "sweep", "wait")}
     for _ in range(repeats):
         st = snap.state()
-        us["two_pass"].append(1e6 * timed(comm, lambda: step2(model, st), steps))
+        us["two_pass"].append(1e6 * timed(comm, lambda: solver.step_two_pass(model, st), steps))
         st = snap.state()
         fused.seconds = dict.fromkeys(fused.seconds, 0.0)
-        us["fused"].append(1e6 * timed(comm, lambda: fused_step(model, fused, st), steps))
+        us["fused"].append(1e6 * timed(comm, lambda: solver.step(model, st), steps))
         phase = {k: comm.allreduce(v / steps, op=MPI.MAX) for k, v in fused.seconds.items()}
         us["interface"].append(1e6 * phase["interface"])
         us["sweep"].append(1e6 * phase["sweep"])

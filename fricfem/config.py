@@ -223,7 +223,7 @@ def apply_overrides(raw: dict, items) -> dict:
 
 
 def _check_value(where: str, f: Field, v):
-    if f.kind is NUM or f.kind == NUM:
+    if f.kind == NUM:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise SceneError(f"{where} = {v!r}: expected a number [{f.unit}] ({f.doc})")
         if not math.isfinite(v):
@@ -231,7 +231,7 @@ def _check_value(where: str, f: Field, v):
     elif f.kind is int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise SceneError(f"{where} = {v!r}: expected a whole number [{f.unit}] ({f.doc})")
-    elif not isinstance(v, f.kind) or (f.kind is int and isinstance(v, bool)):
+    elif not isinstance(v, f.kind):
         names = {str: "a string", bool: "true or false", list: "a list", dict: "a table"}
         raise SceneError(f"{where} = {v!r}: expected {names.get(f.kind, f.kind)} ({f.doc})")
     if isinstance(v, (int, float)) and not isinstance(v, bool):
