@@ -143,7 +143,7 @@ def test_throughput_benchmark_smoke(comm, tmp_dir_shared):
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
     data = bench.main(["--smoke", "--out", str(tmp_dir_shared)], comm)
-    entry = data["runs"][f"coarse/{comm.size}"]
+    entry = data["runs"][f"coarse/{comm.size}/onset"]
     for key in ("two_pass", "fused", "matmult_aij", "matmult_sell", "interface"):
         assert entry["us_per_step"][key] > 0, key
     assert np.isfinite(entry["ratio_fused"])

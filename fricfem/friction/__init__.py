@@ -1,6 +1,6 @@
 """Friction laws: one module each, the same contract (see :mod:`.base`), a registry by name."""
 
-from .base import Law, Param, defaults, pack, param_names, validate
+from .base import Law, Param, defaults, pack, param_names, storage, validate
 from . import povirk_needleman, slip_weakening, stuck
 
 LAWS = {law.name: law for law in (povirk_needleman.LAW, slip_weakening.LAW, stuck.LAW)}
@@ -16,4 +16,4 @@ def get_law(name: str) -> Law:
         ) from None
 
 
-__all__ = ["Law", "Param", "LAWS", "get_law", "defaults", "pack", "param_names", "validate"]
+__all__ = ["Law", "Param", "LAWS", "get_law", "defaults", "pack", "param_names", "storage", "validate"]

@@ -9,7 +9,8 @@ dispatcher), so there is no per-point dispatch on the law's kind.
     Integrate one interface point over one bulk step ``dt`` [s].
 
     p     float64[n_params]  the point's parameters, packed in ``law.params`` order
-    s     float64[n_state]   state at the start of the step; updated in place
+    s     float64[n_state + memo]  state at the start of the step, then the law's memo
+                             (see ``storage``); updated in place
     Ts    shear traction at the start of the step [Pa] (signed)
     Tn0, Tn1  normal traction at the start / end of the step [Pa], compression
           positive, both >= 0 (an open interface never reaches the law); the law
@@ -82,6 +83,15 @@ class Law(NamedTuple):
     steady_mu: Callable  # numba dispatcher (p, v) -> mu_ss
     initial_state: Callable  # python (p, Tn0, Ts0) -> ndarray
     slide: Callable = None  # numba dispatcher (p, s, v, Tn0, Tn1, dt) -> |T_s|, optional
+    memo: int = 0  # storage the law keeps after its state for itself (NaN at first), see ``storage``
+
+
+def storage(law: Law, state) -> np.ndarray:
+    """The array ``advance`` works on: the state (``law.state`` order) followed
+    by ``law.memo`` entries the law may use to remember derived quantities
+    between calls (NaN: nothing remembered).  Only the state is physics; the
+    memo never changes a result."""
+    return np.concatenate([np.asarray(state, dtype=np.float64), np.full(law.memo, np.nan)])
 
 
 def param_names(law: Law) -> tuple:

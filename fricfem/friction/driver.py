@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numba import types
 
-from .base import ADVANCE_TYPE, SLIDE_TYPE, Law, pack, validate
+from .base import ADVANCE_TYPE, SLIDE_TYPE, Law, pack, storage, validate
 
 _vec = types.float64[::1]
 
@@ -74,7 +74,8 @@ def _check_times(t, n_steps, name):
 
 
 def _run_jump_rate(advance, p, s, Ts0, t, vs, Tn, Cs, Ts, rate, slip, work, nsub, state):
-    state[0] = s
+    nst = state.shape[1]  # ``s`` may carry the law's memo after its state
+    state[0] = s[:nst]
     Ts[0] = Ts0
     for k in range(len(vs)):
         T1, v, ds, dw, ns = advance(p, s, Ts[k], Tn[k], Tn[k + 1], vs[k], Cs, t[k + 1] - t[k])
@@ -83,7 +84,7 @@ def _run_jump_rate(advance, p, s, Ts0, t, vs, Tn, Cs, Ts, rate, slip, work, nsub
         slip[k + 1] = slip[k] + ds
         work[k + 1] = work[k] + dw
         nsub[k + 1] = ns
-        state[k + 1] = s
+        state[k + 1] = s[:nst]
 
 
 @functools.lru_cache(maxsize=None)
@@ -127,11 +128,11 @@ def drive_jump_rate(
     vs = np.array(jump_rate, dtype=np.float64)
     t = _check_times(t, len(vs), "jump_rate")
     Tn = np.array(np.broadcast_to(Tn, t.shape), dtype=np.float64)
-    s = _state0(law, p, Tn[0], Ts0, state0)
+    s = storage(law, _state0(law, p, Tn[0], Ts0, state0))
     n = len(t)
     out = [np.zeros(n) for _ in range(4)]
     nsub = np.zeros(n, dtype=np.int64)
-    state = np.zeros((n, len(s)))
+    state = np.zeros((n, len(s) - law.memo))
     _loops()[0](advance or law.advance, p, s, float(Ts0), t, vs, Tn, float(Cs), *out, nsub, state)
     Ts, rate, slip, work = out
     rate[0] = _initial_rate(law, p, Ts0, state[0], Tn[0], float(Cs))
@@ -140,7 +141,7 @@ def drive_jump_rate(
 
 def _initial_rate(law, p, Ts0, s0, Tn0, Cs):
     """Slip rate at t[0]: a zero-length step of the law."""
-    return law.advance(p, np.array(s0), Ts0, Tn0, Tn0, 0.0, Cs, 0.0)[1]
+    return law.advance(p, storage(law, s0), Ts0, Tn0, Tn0, 0.0, Cs, 0.0)[1]
 
 
 def _run_slip_rate(slide, p, s, t, v, Tn, Ts, slip, work, state):

@@ -95,12 +95,51 @@ PARAMS = (
 
 STATE = ("theta0", "theta1", "theta2")
 
+# Storage per point: the three state variables, then a memo of the last
+# strength evaluated, G = g(θ0)(θ1 + θ2), with the θ0 and θ1 + θ2 it belongs to
+# (NaN: none).  ``advance`` reuses it instead of evaluating g again: exactly
+# when the state is the one it was evaluated at (a point that slid through the
+# previous step), and as a lower bound while the point sticks and θ0 only grows
+# (g increases with θ0 when μs >= μd), so that a point well below its strength
+# costs no transcendental function at all.  The results are those of
+# evaluating g every time, bit for bit.  A state of three entries (no memo) is
+# accepted too.
+_KEY_TH0, _KEY_TH, _MEMO_G = 3, 4, 5
+N_STORAGE = 6  # len(STATE) + LAW.memo
+# relative margin on a remembered strength used as a lower bound for a larger
+# θ0 (covers round-off in evaluating g; g itself only grows)
+_BOUND = 1.0 - 1e-12
+
 # Largest number of sliding sub-steps per bulk step: below dt/MAX_SUBSTEPS the
 # accuracy limits are dropped and the sub-step is backward Euler (L-stable,
 # keeps θ0 > 0 and θ1, θ2 between their old value and C T_n, D T_n).
 MAX_SUBSTEPS = 512
 _NEWTON_MAXIT = 60
 _NEWTON_RTOL = 1e-13
+# a Newton step below this (relative) is the last one: the next would change y
+# by its square, below round-off
+_NEWTON_CLOSE = 1e-8
+
+
+@numba.njit(inline="always", cache=True)
+def _int_exponent(e):
+    """``e`` as an int when it is a whole number in [0, 16], else −1."""
+    if 0.0 <= e <= 16.0 and e == math.floor(e):
+        return int(e)
+    return -1
+
+
+@numba.njit(inline="always", cache=True)
+def _pow(y, e):
+    """y**e; by repeated multiplication when e is a small whole number (m = 5
+    of Table 1: y**5 and y**4 then cost four products instead of a ``pow``)."""
+    n = _int_exponent(e)
+    if n < 0:
+        return y**e
+    r = 1.0
+    for _ in range(n):
+        r *= y
+    return r
 
 
 @numba.njit(cache=True)
@@ -145,7 +184,7 @@ def _rate(p, Ts_abs, G):
     if G <= 0.0:
         # Safeguard: no strength left (θ1 + θ2 = 0) with a nonzero traction.
         return np.inf
-    return p[V0] * ((Ts_abs / G) ** p[M] - 1.0)
+    return p[V0] * (_pow(Ts_abs / G, p[M]) - 1.0)
 
 
 @numba.njit(cache=True)
@@ -256,7 +295,7 @@ def _stick_onset(p, Ts, th0, Th, vs, Cs, h):
 
 
 @numba.njit(cache=True)
-def _slide_substep(p, Ts, th0, th1, th2, v, Tna, Tnb, vs, Cs, h, gam):
+def _slide_substep(p, Ts, th0, th1, th2, v, y0, Tna, Tnb, vs, Cs, h, gam):
     """One implicit generalised-midpoint sub-step of length h while sliding.
 
     With v_γ = (1 − γ) v + γ w and w the unknown slip rate at the end,
@@ -266,6 +305,8 @@ def _slide_substep(p, Ts, th0, th1, th2, v, Tna, Tnb, vs, Cs, h, gam):
     |T_s(h)| = g(θ0(h))(θ1(h) + θ2(h)) y, w = V0 (y^m − 1), is solved for
     y in [1, y_max] (y = β at the end; y_max makes T_s(h) = 0) by Newton's
     method, bisecting whenever an iterate leaves the bracket.
+
+    ``y0`` is β = (1 + v/V0)^(1/m) at the start (the Newton iteration starts there).
 
     Returns (Ts, θ0, θ1, θ2, w, y, G, dslip) at the end; G = g(θ0)(θ1 + θ2).
     """
@@ -291,21 +332,21 @@ def _slide_substep(p, Ts, th0, th1, th2, v, Tna, Tnb, vs, Cs, h, gam):
         # The explicit part of a γ < 1 step overshot (h too long): no solution.
         return np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan
 
-    G0 = strength_factor(p, A0) * (A1 + A2)
-    if absT <= G0:  # sticks at the end of the sub-step
-        return Tstar, A0, A1, A2, 0.0, 1.0, G0, dslip0
-
     e = h * Cs * gam * V0_  # |T_s(h)| = absT − e (y^m − 1)
+    # The root lies in (1, y_max] if the point slides at all: F(1) > 0 (the
+    # trial traction exceeds the strength at w = 0), and F(y_max) <= 0 where
+    # T_s(h) = 0.  Both ends are evaluated only when needed (each costs a
+    # transcendental function or three): F(1) once an iterate has F <= 0 (a
+    # start at y0 <= 1 evaluates it first), y_max once a bisection needs it.
     ylo = 1.0
-    yhi = (1.0 + absT / e) ** (1.0 / m)
+    yhi = np.inf
+    one_checked = False
     # Start from the slip rate at the start of the sub-step: the first Newton
     # iterate is then the linearised (rate-tangent) update.
-    y = (1.0 + v / V0_) ** (1.0 / m)
-    if not (ylo < y < yhi):
-        y = 0.5 * (ylo + yhi)
-    w, ym1, th0e, th1e, th2e, G = 0.0, 1.0, A0, A1, A2, G0
+    y = y0 if 1.0 <= y0 < np.inf else 1.0
+    w, ym1, th0e, th1e, th2e, G = 0.0, 1.0, A0, A1, A2, 0.0
     for _ in range(_NEWTON_MAXIT):
-        ym1 = y ** (m - 1.0)
+        ym1 = _pow(y, m - 1.0)
         w = V0_ * (ym1 * y - 1.0)
         dw = m * V0_ * ym1
         q0 = 1.0 + k0 * w
@@ -320,21 +361,53 @@ def _slide_substep(p, Ts, th0, th1, th2, v, Tna, Tnb, vs, Cs, h, gam):
         dG_dw = dg * (-th0e * k0 / q0) * Th + g * ((c1 - k1 * th1e) / q1 + (c2 - k2 * th2e) / q2)
         F = absT - e * (ym1 * y - 1.0) - G * y
         dF = -e * m * ym1 - G - y * dG_dw * dw
+        if y == 1.0:  # F(1) itself
+            if F <= 0.0:  # sticks at the end of the sub-step
+                return Tstar, A0, A1, A2, 0.0, 1.0, G, dslip0
+            one_checked = True
         if F == 0.0:
             break
         if F > 0.0:
             ylo = y
         else:
             yhi = y
+            if not one_checked and ylo == 1.0:
+                one_checked = True
+                G0 = strength_factor(p, A0) * (A1 + A2)
+                if absT <= G0:  # sticks at the end of the sub-step
+                    return Tstar, A0, A1, A2, 0.0, 1.0, G0, dslip0
         # Safeguard: Newton inside the bracket, else bisection.
         ynew = y - F / dF if dF < 0.0 else -1.0
         if not (ylo <= ynew <= yhi):
+            if yhi == np.inf:
+                yhi = (1.0 + absT / e) ** (1.0 / m)
             ynew = 0.5 * (ylo + yhi)
+        elif abs(ynew - y) <= _NEWTON_CLOSE * y:
+            # Converging quadratically: ynew is exact to ~(ynew − y)², round-off.
+            # Take it; the end state in closed form, G to first order (its
+            # error is of the same size), saving one more evaluation of g.
+            G += dG_dw * dw * (ynew - y)
+            y = ynew
+            ym1 = _pow(y, m - 1.0)
+            w = V0_ * (ym1 * y - 1.0)
+            th0e = A0 / (1.0 + k0 * w)
+            th1e = (A1 + c1 * w) / (1.0 + k1 * w)
+            th2e = (A2 + c2 * w) / (1.0 + k2 * w)
+            break
         if abs(ynew - y) <= _NEWTON_RTOL * y:
             break  # keep y: the end state above belongs to it
         y = ynew
     Ts1 = sign(Tstar) * max(absT - e * (ym1 * y - 1.0), 0.0)
     return Ts1, th0e, th1e, th2e, w, y, G, dslip0 + h * gam * w
+
+
+@numba.njit(inline="always", cache=True)
+def _remember(s, th0, Th, G):
+    """Keep G = g(θ0)·Th in the point's memo (if it has one)."""
+    if s.size >= N_STORAGE:
+        s[_KEY_TH0] = th0
+        s[_KEY_TH] = Th
+        s[_MEMO_G] = G
 
 
 @numba.njit(cache=True)
@@ -351,23 +424,54 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
     kap = p[SUB_STIFF]
     hmin = dt / MAX_SUBSTEPS
     th0, th1, th2 = s[0], s[1], s[2]
-    G = strength_factor(p, th0) * (th1 + th2)
-    v = _rate(p, abs(Ts), G)
+    Th = th1 + th2
+    absTs = abs(Ts)
+    # g grows with θ0 when μs >= μd: a strength known at some θ0 is then a
+    # lower bound ``lb`` on the strength after any aging with θ1, θ2 frozen.
+    mono = p[MU_S] >= p[MU_D]
+    # The strength at the start from the memo: exactly (the memo is of this
+    # state), or the lower bound of a smaller θ0.  ``G < 0``: not known yet.
+    G = -1.0
+    lb = 0.0
+    if s.size >= N_STORAGE and Th == s[_KEY_TH]:
+        if th0 == s[_KEY_TH0]:
+            G = s[_MEMO_G]
+        elif th0 > s[_KEY_TH0] and mono:
+            lb = s[_MEMO_G]
+    if G < 0.0 and absTs <= lb * _BOUND:
+        v = 0.0  # sticks at the start: below the strength at a smaller θ0
+    else:
+        if G < 0.0:
+            G = strength_factor(p, th0) * Th
+            _remember(s, th0, Th, G)
+        if mono:
+            lb = G
+        v = _rate(p, absTs, G)
     t = 0.0
     dslip = 0.0
     dwork = 0.0
     nsub = 0
-    h = kap * G / (Cs * m * p[V0] * (1.0 + v / p[V0]) ** ((m - 1.0) / m)) if G > 0.0 else hmin
+    # β at the start (the Newton iterations start there) and the first sub-step
+    # from the stiffness h C_s ∂v/∂|T_s| = κ, ∂v/∂|T_s| = m V0 β^(m−1)/G
+    y = absTs / G if v > 0.0 else 1.0
+    h = kap * G / (Cs * m * p[V0] * _pow(y, m - 1.0)) if v > 0.0 and G > 0.0 else hmin
     onset = False
     while True:
         rem = dt - t
         if v == 0.0 and not onset:
             # Stick: T_s grows elastically, θ0 ages linearly, θ1, θ2 frozen.
-            Th = th1 + th2
             Te = Ts + Cs * vs * rem
-            if abs(Te) <= strength_factor(p, th0 + p[B] * rem) * Th:
+            if abs(Te) <= lb * _BOUND:  # below a strength that aging only raises
                 Ts = Te
                 th0 += p[B] * rem
+                nsub += 1
+                break
+            th_end = th0 + p[B] * rem
+            G_end = strength_factor(p, th_end) * Th
+            _remember(s, th_end, Th, G_end)
+            if abs(Te) <= G_end:
+                Ts = Te
+                th0 = th_end
                 nsub += 1
                 break
             tau = _stick_onset(p, Ts, th0, Th, vs, Cs, rem)
@@ -377,6 +481,7 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
             onset = True
             # First sliding sub-step from the stiffness at β = 1.
             G = strength_factor(p, th0) * Th
+            y = 1.0
             h = kap * G / (Cs * m * p[V0]) if G > 0.0 else hmin
             continue
         onset = False
@@ -389,8 +494,8 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
             # Safeguard: at the floor the accuracy limits are dropped and the
             # sub-step is backward Euler (L-stable, positivity-preserving).
             forced = h <= hmin * 1.000001
-            Ts1, a0, a1, a2, w, y, G1, ds = _slide_substep(
-                p, Ts, th0, th1, th2, v, tn_a, tn_b, vs, Cs, h, 1.0 if forced else gam
+            Ts1, a0, a1, a2, w, y1, G1, ds = _slide_substep(
+                p, Ts, th0, th1, th2, v, y, tn_a, tn_b, vs, Cs, h, 1.0 if forced else gam
             )
             # Accuracy limits, checked on the solved sub-step: the change of
             # T_s and of the strength G = g(θ0)(θ1 + θ2) relative to the
@@ -403,14 +508,19 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
                 Gm = max(G, G1)
                 if Gm > 0.0:
                     err = max(abs(Ts1 - Ts), abs(G1 - G)) / Gm
-                    stiff = h * Cs * m * p[V0] * y ** (m - 1.0) / G1 if G1 > 0.0 else np.inf
+                    stiff = h * Cs * m * p[V0] * _pow(y1, m - 1.0) / G1 if G1 > 0.0 else np.inf
                     r = max(err / tol, stiff / kap)
             if forced or r <= 1.0:
                 break
             h = max(h * max(0.9 / r, 0.1), hmin)
         dwork += frictional_work(Ts, Ts1, ds)
         dslip += ds
-        Ts, th0, th1, th2, v, G = Ts1, a0, a1, a2, w, G1
+        Ts, th0, th1, th2, v, y, G = Ts1, a0, a1, a2, w, y1, G1
+        # the strength of the new state is known exactly, for the next stick
+        # test (in this step) and the next step
+        Th = th1 + th2
+        lb = G if mono else 0.0
+        _remember(s, th0, Th, G)
         nsub += 1
         if h >= rem:
             break
@@ -462,4 +572,5 @@ LAW = Law(
     steady_mu=steady_mu,
     initial_state=initial_state,
     slide=slide,
+    memo=N_STORAGE - len(STATE),
 )
