@@ -96,6 +96,8 @@ SCHEMA = {
                                                     "experiments; the watchdog guards the run)"),
         "stop_at_tip": Field(NUM, 0.0, "m", 0.0, None,
                              "end the run once the sliding tip passes this x1 (0: never), e.g. the fine region's end"),
+        "skip_quiet": Field(bool, True, doc="skip the rows the motion has not reached yet (bit-identical "
+                                            "to computing every row; false: compute every row)"),
     },
     "watchdog": {
         "enabled": Field(bool, True, doc="stop a diverging run with a message"),
@@ -138,6 +140,7 @@ class Scene(NamedTuple):
     dt: float | None
     stop_at_tip: float
     allow_unstable_dt: bool
+    skip_quiet: bool
     output: dict
     watchdog: dict
     raw: dict  # the merged TOML tables, for the record
@@ -349,6 +352,7 @@ def validate(raw: dict) -> Scene:
         tau0=float(itf["tau0"]), tau0_patches=patches, law=fr["law"], params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
         stop_at_tip=float(tm["stop_at_tip"]), allow_unstable_dt=tm["allow_unstable_dt"],
+        skip_quiet=tm["skip_quiet"],
         output=out, watchdog=sec["watchdog"], raw=raw,
     )
 

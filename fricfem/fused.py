@@ -94,6 +94,11 @@ class Special(NamedTuple):
     preloaded: np.ndarray
 
 
+# Activity of a row (:class:`FusedBulk`): QUIET rows are skipped; ACTIVE rows
+# are computed; SPREAD rows are computed and have woken their neighbours.
+QUIET, ACTIVE, SPREAD = 0, 1, 2
+
+
 def block_rows(K: PETSc.Mat) -> BlockRows:
     """Block CSR of the owned rows of ``K`` (AIJ whose layout has block size 2).
 
@@ -256,9 +261,20 @@ def _special_update(I, k, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloade
     return work
 
 
+@numba.njit(inline="always", cache=True)
+def _wake_neighbours(ptr, col, act, n, I):
+    """Row ``I`` holds a nonzero displacement from now on: its owned neighbours
+    are computed from the next step on (or from this one, if still to come)."""
+    for p in range(ptr[I], ptr[I + 1]):
+        J = col[p]
+        if J < n and act[J] == QUIET:
+            act[J] = ACTIVE
+    act[I] = SPREAD
+
+
 @numba.njit(cache=True)
 def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred, sp_preloaded,
-          imp_mass, imp_prev, dt, u0, u1, v_bc):
+          imp_mass, imp_prev, dt, u0, u1, v_bc, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
@@ -269,6 +285,8 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
     imp_mass  float64[n_imp]  lumped masses of the struck dofs  [kg/m]
     imp_prev  float64[n_imp]  u^{n−1} of the struck dofs, set to u^n = U(t^n) [m]
     u0, u1, v_bc  U(t^n), U(t^{n+1}) [m] and (u1 − u0)/dt [m/s]
+    act       int8[n]         activity of each row (QUIET rows are skipped; see
+                              :class:`FusedBulk`), updated
 
     Returns (u^n · K u^n over the swept rows [J/m, twice the strain energy],
     reaction work over the step [J/m]).
@@ -290,7 +308,12 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
             uku += u[i] * s0 + u[i + 1] * s1
             work += _special_update(I, kk, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded,
                                     imp_mass, imp_prev, dt, u0, u1, v_bc)
+            if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+                _wake_neighbours(ptr, col, act, n, I)
             continue
+        state = act[I]
+        if state == QUIET:
+            continue  # u = v = 0 here and at the neighbours: the update is exactly zero
         s0, s1 = _row(ptr, col, val, u, I)
         uku += u[i] * s0 + u[i + 1] * s1
         c = dt_minv[I]
@@ -298,12 +321,14 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
         unew[i] = u[i] + dt * v[i]
         v[i + 1] -= c * s1
         unew[i + 1] = u[i + 1] + dt * v[i + 1]
+        if state == ACTIVE and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+            _wake_neighbours(ptr, col, act, n, I)
     return uku, work
 
 
 @numba.njit(cache=True)
 def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred,
-                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc):
+                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc, act):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements.  Otherwise as :func:`sweep`."""
     n = ptr.size - 1
@@ -318,6 +343,8 @@ def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact
         uku += u[i] * s0 + u[i + 1] * s1
         work += _special_update(I, kk, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded,
                                 imp_mass, imp_prev, dt, u0, u1, v_bc)
+        if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+            _wake_neighbours(ptr, col, act, n, I)
     return uku, work
 
 
@@ -328,14 +355,31 @@ class FusedBulk:
     """The fused step of one model: built once (:meth:`build`), one verb (:meth:`advance`).
 
     >>> fused = FusedBulk.build(model)
+    >>> fused.rest(state.u, state.t)      # the state is at rest: skip the quiet rows
     >>> uku, work = fused.advance(state.u, state.u_next, state.v, state.u_imp_prev, state.t)
     >>> state.u, state.u_next = state.u_next, state.u
+
+    Skipping what the motion has not reached.  Started from rest, a row whose
+    node and neighbours all hold u = v = 0 has an update of exactly zero, so it
+    is skipped ("quiet"); it is computed from the step after one of its
+    neighbours first holds a nonzero displacement.  The result is the full
+    computation's, bit for bit.  (The explicit scheme's numerical precursor
+    runs ahead of the c_l front, one ring of cells per step, with values that
+    decay faster than exponentially; waking rows only above a tiny threshold
+    would skip more, but rounding then differs in the last bits, which the
+    adaptive friction integration can amplify, so it is not done.)  The
+    special rows are always computed.  The activity belongs to the sequence of
+    steps from :meth:`rest`: a call whose ``u`` is not the previous call's
+    ``u_next`` at the next time (a state set by hand, a restart) first wakes
+    every row; ``skip=False`` never skips.
     """
 
-    def __init__(self, K: PETSc.Mat, dt_minv, dt: float, interface, impact):
+    def __init__(self, K: PETSc.Mat, dt_minv, dt: float, interface, impact, skip: bool = True):
         """``interface`` the model's interface or None (bulk alone); ``impact`` a
-        :class:`fricfem.solver.Impact` (x1 dofs, masses, pulse).  Collective."""
+        :class:`fricfem.solver.Impact` (x1 dofs, masses, pulse); ``skip``: skip
+        the quiet rows of a state started from rest.  Collective."""
         self.dt = float(dt)
+        self.skip = bool(skip)
         dt_minv = np.asarray(dt_minv, dtype=np.float64)
         if not np.array_equal(dt_minv[0::2], dt_minv[1::2]):
             raise ValueError("fused: the lumped mass differs between the two components of a node")
@@ -350,12 +394,14 @@ class FusedBulk:
         #: reverse scatter), the sweeps, and the wait for off-rank displacements
         self.seconds = {"interface": 0.0, "sweep": 0.0, "wait": 0.0}
         self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, self.g))
+        n_nodes = len(self.rows.ptr) - 1
+        self.act = np.full(n_nodes, SPREAD, dtype=np.int8)  # awake until rest()
+        self._expect = None  # (id of the next u, next t) of an unbroken sequence of steps
         comm = K.getComm().tompi4py()
         self.ghost_scatter = None
         self.ug = np.zeros(0)
         # an interface row with off-rank columns needs them before the interface
         # forces are added (to sum f as the two-pass step does)
-        n_nodes = len(self.rows.ptr) - 1
         crossing = self.special.preloaded.astype(bool) & _has_off_rank(self.rows, self.special.node[:-1], n_nodes)
         self.ghosts_first = comm.allreduce(bool(crossing.any()), op=MPI.LOR)
         if comm.allreduce(len(self.rows.ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
@@ -366,9 +412,26 @@ class FusedBulk:
             self.ug = self.ghost_vec.array
 
     @classmethod
-    def build(cls, model) -> FusedBulk:
+    def build(cls, model, skip: bool = True) -> FusedBulk:
         """From a :class:`fricfem.solver.Model` (K, dt/m, dt, interface, struck edge)."""
-        return cls(model.K, model.dt_minv, model.dt, model.interface, model.impact)
+        return cls(model.K, model.dt_minv, model.dt, model.interface, model.impact, skip)
+
+    def rest(self, u: PETSc.Vec, t: float) -> None:
+        """The state whose displacement vector is ``u`` is at rest (u = v = 0) at
+        time ``t``: from there on only rows the motion reaches are computed."""
+        if self.skip:
+            self.act[:] = QUIET
+            self.act[self.special.node[:-1]] = ACTIVE
+        self._expect = (id(u), t)
+
+    def wake(self) -> None:
+        """Compute every row from now on (a state set by hand)."""
+        self.act[:] = SPREAD
+
+    @property
+    def active_fraction(self) -> float:
+        """Share of this rank's rows computed in the last step."""
+        return float(np.count_nonzero(self.act)) / max(len(self.act), 1)
 
     def advance(self, u: PETSc.Vec, u_next: PETSc.Vec, v: PETSc.Vec, imp_prev: np.ndarray, t: float):
         """One step from t^n = ``t``.  Collective.
@@ -381,6 +444,9 @@ class FusedBulk:
         energy) and its reaction work over the step [J/m].
         """
         dt = self.dt
+        if self._expect != (id(u), t):
+            self.wake()  # not the continuation of the last step: compute everything
+        self._expect = (id(u_next), t + dt)
         u0 = self.pulse.displacement(t)
         u1 = self.pulse.displacement(t + dt)
         v_bc = (u1 - u0) / dt
@@ -397,14 +463,14 @@ class FusedBulk:
             self.interface.add_forces(u, self.g, dt)  # g += −F_int(u^n)
         t1 = time.perf_counter()
         uku, work = sweep(r.ptr, r.col, r.val, ua, una, va, self.dt_minv, ga, sp.node, sp.impact, sp.deferred,
-                          sp.preloaded, self.imp_mass, imp_prev, dt, u0, u1, v_bc)
+                          sp.preloaded, self.imp_mass, imp_prev, dt, u0, u1, v_bc, self.act)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None and not self.ghosts_first:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         uku_d, work_d = sweep_deferred(r.ptr, r.col, r.val, ua, self.ug, una, va, self.dt_minv, ga, sp.node,
                                        sp.impact, sp.deferred, sp.preloaded, self.imp_mass, imp_prev,
-                                       dt, u0, u1, v_bc)
+                                       dt, u0, u1, v_bc, self.act)
         t4 = time.perf_counter()
         sec = self.seconds
         sec["interface"] += t1 - t0

@@ -298,7 +298,7 @@ def build_model(scene: Scene, comm):
     model = solver.build(
         pm, scene.material, scene.pulse, law, lambda x1: config.point_params(scene, x1), scene.sigma0,
         scene.Cn, scene.Cs, tau0=lambda x1: config.point_tau0(scene, x1), impact_tags=impact,
-        dt_safety=scene.dt_safety, dt=scene.dt,
+        dt_safety=scene.dt_safety, dt=scene.dt, skip_quiet=scene.skip_quiet,
     )
     return pm, model
 

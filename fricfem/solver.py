@@ -83,6 +83,8 @@ class State:
         self.n = 0
         self.work_ext = 0.0  # this rank's share [J/m]
         self.u_imp_prev = np.zeros(len(model.impact.dofs))
+        if model.fused is not None:
+            model.fused.rest(self.u, self.t)  # at rest: the fused step skips what the motion has not reached
 
 
 def function_space(msh):
@@ -176,7 +178,7 @@ def _per_point(value, x1, width=None):
 
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
-          dt_safety: float = 0.9, dt: float | None = None) -> Model:
+          dt_safety: float = 0.9, dt: float | None = None, skip_quiet: bool = True) -> Model:
     """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.mesh.PlateMesh`).
 
     law       a :class:`fricfem.friction.Law`
@@ -186,6 +188,8 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     tau0      initial shear traction on the interface [Pa] (scalar or callable of x1)
     impact_tags  edges carrying the prescribed velocity
     dt        fixed step [s]; default ``dt_safety · 2/√λmax``, rounded down to 3 digits
+    skip_quiet  the fused step skips the rows the motion has not reached
+              (:class:`fricfem.fused.FusedBulk`)
     """
     comm = pm.mesh.comm
     V = function_space(pm.mesh)
@@ -205,7 +209,7 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
     model = Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm)
-    return model._replace(fused=fused_mod.FusedBulk.build(model))
+    return model._replace(fused=fused_mod.FusedBulk.build(model, skip=skip_quiet))
 
 
 def step(model: Model, state: State, energy: dict | None = None) -> None:

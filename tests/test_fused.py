@@ -150,3 +150,47 @@ def test_throughput_benchmark_smoke(comm, tmp_dir_shared):
     if comm.rank == 0:
         assert json.loads((tmp_dir_shared / "throughput.json").read_text())["runs"]
         assert (tmp_dir_shared / "throughput.png").stat().st_size > 0
+
+
+def test_skipping_quiet_rows_is_the_full_computation(comm):
+    """Coarse Case I at 10 m/s to 20 µs (the interface slides near the edge):
+    the fused step that skips the rows the motion has not reached gives the same
+    u, v and interface data as the one that computes every row, bit for bit, and
+    it does skip rows (about half of them in the first microseconds)."""
+    scene = config.load("case1", ["loading.v_imp=10", "mesh.preset=coarse", "time.end=20e-6", "output.fields=[]"])
+    _, model = run.build_model(scene, comm)
+    points = model.interface.points
+    start = [a.copy() for a in points]
+    out, skipped = {}, []
+    for skip in (False, True):
+        for a, s in zip(points, start):
+            a[...] = s
+        m = model._replace(fused=FusedBulk.build(model, skip=skip))
+        st = solver.State(m)
+        while st.t < scene.t_end:
+            solver.step(m, st)
+            if skip:
+                skipped.append(1.0 - comm.allreduce(m.fused.active_fraction) / comm.size)
+        out[skip] = (st.u.array_r.copy(), st.v.array_r.copy(), [a.copy() for a in points])
+    assert comm.allreduce(int((points.slip > 0).sum())) > 0, "the interface should slide"
+    assert max(skipped[:5]) > 0.4 and skipped[-1] >= 0.0
+    u0, v0, p0 = out[False]
+    u1, v1, p1 = out[True]
+    assert comm.allreduce(int(np.array_equal(u0, u1) and np.array_equal(v0, v1)), op=MPI.MIN)
+    for name in ("Ts", "Tn", "slip", "slip_rate"):
+        i = points._fields.index(name)
+        assert rel_diff(p0[i], p1[i], comm) <= RTOL, name  # in fact 0
+        assert np.array_equal(p0[i], p1[i]), name
+
+
+def test_a_state_set_by_hand_wakes_every_row(comm):
+    """A state whose u is written directly (not a continuation of the last step)
+    is stepped in full: every row active."""
+    scene = config.load("case1", ["mesh.preset=coarse"])
+    _, model = run.build_model(scene, comm)
+    st = solver.State(model)
+    solver.step(model, st)
+    assert model.fused.active_fraction < 1.0
+    st.t = 5e-6  # e.g. a restored snapshot
+    solver.step(model, st)
+    assert model.fused.active_fraction == 1.0
