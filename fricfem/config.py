@@ -75,6 +75,11 @@ SCHEMA = {
         "t_fall": Field(NUM, 10e-6, "s", 0.0, 1.0, "step-down time t_s", open_low=True),
         "symmetric": Field(bool, False, doc="strike both plates (|x2| <= b)"),
         "direction": Field(str, "push", doc="'push' (edge moves into the specimen) or 'pull'"),
+        "kind": Field(str, "velocity", doc="how V(t) acts: 'velocity' (edge velocity, the paper), 'traction' "
+                                           "(normal traction ρ c_l V) or 'projectile' (impedance Z, traction "
+                                           "Z (V − v_edge))"),
+        "impedance": Field(NUM, 4.6e7, "Pa·s/m", 0.0, None, "projectile impedance ρc (kind = 'projectile'; "
+                                                           "steel ≈ 4.6e7)", open_low=True),
     },
     "interface": {
         "Cn": Field(NUM, 3e11, "Pa/m", 0.0, None, "normal stiffness C_n", open_low=True),
@@ -315,7 +320,7 @@ def validate(raw: dict) -> Scene:
 
     ld = sec["loading"]
     pulse = ImpactPulse(float(ld["v_imp"]), float(ld["t_rise"]), float(ld["t_hold_end"]), float(ld["t_fall"]),
-                        ld["direction"])
+                        ld["direction"], ld["kind"], float(ld["impedance"]))
     try:
         pulse.check()
     except ValueError as err:

@@ -20,7 +20,8 @@ that need more than the plain update are listed once, sorted ("special"):
 * struck-edge nodes: u1 is prescribed, ``u1 = U(t^{n+1})``, with the half-step
   velocity ``(U(t^{n+1}) − U(t^n))/dt``, and the reaction ``R^n = M a^n + f^n``
   does the work ``R^n (u^{n+1} − u^{n−1})/2``, as the two-pass step of
-  :mod:`fricfem.solver` has it;
+  :mod:`fricfem.solver` has it (or, for a traction load, the edge force
+  enters the update; see :func:`_special_update`);
 * interface nodes: a short pre-pass puts ``K u^n`` into the vector ``g`` at
   these rows, and :meth:`Interface.add_forces` adds the negative interface
   forces there through its reverse scatter;
@@ -232,9 +233,14 @@ def preload(ptr, col, val, u, ug, g, sp_node, sp_preloaded):
 
 @numba.njit(cache=True)
 def _special_update(I, k, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded, imp_mass, imp_prev,
-                    dt, u0, u1, v_bc):
+                    dt, u0, u1, v_bc, imp_force, imp_damp, sv):
     """Update the special node ``I`` (its index ``k`` in the special arrays) from
-    ``s = (K u)_I``; returns the reaction work of the step on it [J/m]."""
+    ``s = (K u)_I``; returns the work of the step's load on it [J/m].
+
+    On the struck edge either u1 is prescribed (``imp_mass`` the masses; U(t^n),
+    U(t^{n+1}), v_bc) or, when ``imp_force`` is not empty, a traction acts:
+    the force ``imp_force · sv − imp_damp · v^n`` with v^n = (v^{n−½} + v^{n+½})/2
+    (``sv`` = sign · V(t^n)), taken implicitly in v^{n+½}."""
     i = 2 * I
     if sp_preloaded[k]:
         f0 = g[i]  # (K u) + forces, summed as the two-pass step does
@@ -246,7 +252,16 @@ def _special_update(I, k, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloade
         f1 = s1
     work = 0.0
     q = sp_impact[k]
-    if q >= 0:
+    if q >= 0 and imp_force.size:
+        c = dt_minv[I]
+        a = 0.5 * c * imp_damp[q]
+        v_old = v[i]
+        v[i] = (v_old * (1.0 - a) - c * (f0 - imp_force[q] * sv)) / (1.0 + a)
+        unew[i] = u[i] + dt * v[i]
+        load = imp_force[q] * sv - imp_damp[q] * 0.5 * (v_old + v[i])
+        work = load * (0.5 * (unew[i] - imp_prev[q]))
+        imp_prev[q] = u[i]
+    elif q >= 0:
         # prescribed u1 = U(t^{n+1}), v1 = (U(t^{n+1}) − U(t^n))/dt; reaction R^n = M a^n + f^n
         react = imp_mass[q] * (v_bc - v[i]) / dt + f0
         work = react * (0.5 * (u1 - imp_prev[q]))
@@ -274,7 +289,7 @@ def _wake_neighbours(ptr, col, act, n, I):
 
 @numba.njit(cache=True)
 def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred, sp_preloaded,
-          imp_mass, imp_prev, dt, u0, u1, v_bc, act):
+          imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
@@ -307,7 +322,7 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
             s0, s1 = _row(ptr, col, val, u, I)
             uku += u[i] * s0 + u[i + 1] * s1
             work += _special_update(I, kk, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded,
-                                    imp_mass, imp_prev, dt, u0, u1, v_bc)
+                                    imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv)
             if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
                 _wake_neighbours(ptr, col, act, n, I)
             continue
@@ -328,7 +343,7 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
 
 @numba.njit(cache=True)
 def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred,
-                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc, act):
+                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv, act):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements.  Otherwise as :func:`sweep`."""
     n = ptr.size - 1
@@ -342,7 +357,7 @@ def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact
         s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
         work += _special_update(I, kk, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded,
-                                imp_mass, imp_prev, dt, u0, u1, v_bc)
+                                imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv)
         if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
     return uku, work
@@ -387,6 +402,9 @@ class FusedBulk:
         self.interface = interface
         self.pulse = impact.pulse
         self.imp_mass = np.ascontiguousarray(impact.mass, dtype=np.float64)
+        traction = not impact.pulse.prescribed and len(impact.force) == len(impact.dofs)
+        self.imp_force = np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64)
+        self.imp_damp = np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64)
         self.rows = block_rows(K)
         self.g = K.createVecRight()  # see Special.preloaded; zero between steps
         self.g.set(0.0)
@@ -450,6 +468,8 @@ class FusedBulk:
         u0 = self.pulse.displacement(t)
         u1 = self.pulse.displacement(t + dt)
         v_bc = (u1 - u0) / dt
+        # a traction load: its nodal coefficients and sign · V(t^n) (empty arrays: prescribed)
+        load = (self.imp_force, self.imp_damp, self.pulse.sign * self.pulse.velocity(t))
         r, sp = self.rows, self.special
         ua, una, va, ga = u.array_r, u_next.array, v.array, self.g.array
         insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
@@ -463,14 +483,14 @@ class FusedBulk:
             self.interface.add_forces(u, self.g, dt)  # g += −F_int(u^n)
         t1 = time.perf_counter()
         uku, work = sweep(r.ptr, r.col, r.val, ua, una, va, self.dt_minv, ga, sp.node, sp.impact, sp.deferred,
-                          sp.preloaded, self.imp_mass, imp_prev, dt, u0, u1, v_bc, self.act)
+                          sp.preloaded, self.imp_mass, imp_prev, dt, u0, u1, v_bc, *load, self.act)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None and not self.ghosts_first:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         uku_d, work_d = sweep_deferred(r.ptr, r.col, r.val, ua, self.ug, una, va, self.dt_minv, ga, sp.node,
                                        sp.impact, sp.deferred, sp.preloaded, self.imp_mass, imp_prev,
-                                       dt, u0, u1, v_bc, self.act)
+                                       dt, u0, u1, v_bc, *load, self.act)
         t4 = time.perf_counter()
         sec = self.seconds
         sec["interface"] += t1 - t0

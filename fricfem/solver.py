@@ -37,16 +37,23 @@ from .mesh import TAGS
 
 
 class Impact(NamedTuple):
-    """The prescribed normal velocity on the struck edge.
+    """The load on the struck edge (:mod:`fricfem.loading`).
 
     dofs   int32[n]    owned local indices (into the PETSc arrays) of the x1 dofs
     mass   float64[n]  their lumped masses [kg/m]
     pulse  ImpactPulse
+    force  float64[n]  for a traction load (``pulse.kind`` not "velocity"): the
+                       nodal force is ``force · sign · V(t) − damp · v1``, with
+                       force = A Z_f and damp = A Z_d [N·s/m², per m thickness],
+                       A = ∫ N_i ds over the edge; zeros for a prescribed velocity
+    damp   float64[n]
     """
 
     dofs: np.ndarray
     mass: np.ndarray
     pulse: ImpactPulse
+    force: np.ndarray = np.zeros(0)
+    damp: np.ndarray = np.zeros(0)
 
 
 class Model(NamedTuple):
@@ -129,6 +136,17 @@ def impact_dofs(V, facet_tags, names) -> np.ndarray:
     return np.sort(dofs[dofs < n_owned]).astype(np.int32)
 
 
+def edge_weights(V, facet_tags, names, dofs) -> np.ndarray:
+    """A_i = ∫ N_i ds over the facets tagged ``names`` at the x1 dofs ``dofs`` [m per m]."""
+    ds = ufl.Measure("ds", domain=V.mesh, subdomain_data=facet_tags)
+    e1 = fem.Constant(V.mesh, PETSc.ScalarType((1.0, 0.0)))
+    v = ufl.TestFunction(V)
+    form = sum((ufl.inner(e1, v) * ds(TAGS[n]) for n in names[1:]), ufl.inner(e1, v) * ds(TAGS[names[0]]))
+    b = fem_petsc.assemble_vector(fem.form(form))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return b.array[dofs].copy()
+
+
 def _coordinate_noise(V) -> np.ndarray:
     """A deterministic pseudo-random vector keyed on dof coordinates (identical on any
     number of ranks), to start the power iteration."""
@@ -203,7 +221,11 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     )
     interface = iface_mod.Interface(geom, points, law)
     dofs = impact_dofs(V, pm.facet_tags, impact_tags)
-    impact = Impact(dofs, mass[dofs].copy(), pulse)
+    impact = Impact(dofs, mass[dofs].copy(), pulse, np.zeros(len(dofs)), np.zeros(len(dofs)))
+    if not pulse.prescribed and len(impact_tags):
+        area = edge_weights(V, pm.facet_tags, impact_tags, dofs)
+        z_force, z_damp = pulse.impedances(material.rho * material.c_l)
+        impact = impact._replace(force=z_force * area, damp=z_damp * area)
     lam = max_eigenvalue(K, mass, interface, V)
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
@@ -259,16 +281,30 @@ def step_two_pass(model: Model, state: State, energy: dict | None = None, timers
     fa = f.array_r
     f_imp = fa[imp.dofs]
     v_imp_old = v.array_r[imp.dofs]
+    u_imp_old = u.array_r[imp.dofs]
     leapfrog_update(u.array, v.array, fa, model.dt_minv, dt)
-    # the struck edge: exact prescribed displacement, consistent half-step velocity
-    u1 = imp.pulse.displacement(state.t + dt)
-    u0 = imp.pulse.displacement(state.t)
-    u.array[imp.dofs] = u1
-    v.array[imp.dofs] = (u1 - u0) / dt
-    # reaction R^n = M a^n + f^n on the struck dofs; work R^n·(u^{n+1} − u^{n−1})/2
-    react = imp.mass * ((u1 - u0) / dt - v_imp_old) / dt + f_imp
-    state.work_ext += float(np.dot(react, 0.5 * (u1 - state.u_imp_prev)))
-    state.u_imp_prev = np.full(len(imp.dofs), u0)
+    if imp.pulse.prescribed:
+        # the struck edge: exact prescribed displacement, consistent half-step velocity
+        u1 = imp.pulse.displacement(state.t + dt)
+        u0 = imp.pulse.displacement(state.t)
+        u.array[imp.dofs] = u1
+        v.array[imp.dofs] = (u1 - u0) / dt
+        # reaction R^n = M a^n + f^n on the struck dofs; work R^n·(u^{n+1} − u^{n−1})/2
+        react = imp.mass * ((u1 - u0) / dt - v_imp_old) / dt + f_imp
+        state.work_ext += float(np.dot(react, 0.5 * (u1 - state.u_imp_prev)))
+        state.u_imp_prev = np.full(len(imp.dofs), u0)
+    else:
+        # a traction F = force·sign·V(t^n) − damp·v^n, v^n = (v^{n−½} + v^{n+½})/2 (implicit in v^{n+½})
+        sv = imp.pulse.sign * imp.pulse.velocity(state.t)
+        c = model.dt_minv[imp.dofs]
+        a = 0.5 * c * imp.damp
+        v_new = (v_imp_old * (1.0 - a) - c * (f_imp - imp.force * sv)) / (1.0 + a)
+        u_new = u_imp_old + dt * v_new
+        v.array[imp.dofs] = v_new
+        u.array[imp.dofs] = u_new
+        load = imp.force * sv - imp.damp * 0.5 * (v_imp_old + v_new)
+        state.work_ext += float(np.dot(load, 0.5 * (u_new - state.u_imp_prev)))
+        state.u_imp_prev = u_imp_old
     if energy is not None:
         kinetic = 0.5 * float(np.dot(model.mass * v_old, v.array_r))
         loc = np.array([kinetic, state.work_ext])
