@@ -142,11 +142,15 @@ def _pow(y, e):
     return r
 
 
-@numba.njit(cache=True)
-def g_and_dg(p, th0):
-    """g(θ0) and dg/dθ0 (paper's Appendix, with Q = L0/(V0 θ0) + 1)."""
+@numba.njit(inline="always", cache=True)
+def _g_dg(p, ith0):
+    """g(θ0) and dg/dθ0 from 1/θ0 (paper's Appendix, with Q = L0/(V0 θ0) + 1).
+
+    Written with one division (the sliding sub-step evaluates it in a chain of
+    dependent operations, where each division costs as much as ~10 products).
+    """
     ds = p[MU_S] - p[MU_D]
-    x = p[L0] / (p[V1] * th0)
+    x = p[L0] / p[V1] * ith0
     xp = x ** p[P]
     # Safeguard: for θ0 -> 0, x^p overflows; exp(-x^p) -> 0 and so does its
     # derivative term (avoid inf * 0 = NaN).
@@ -155,13 +159,20 @@ def g_and_dg(p, th0):
         de = 0.0
     else:
         e = math.exp(-xp)
-        de = ds * p[P] * xp * e / th0
+        de = ds * p[P] * xp * e * ith0
     mu_star = p[MU_D] + ds * e
-    q = p[L0] / (p[V0] * th0) + 1.0
+    a = p[L0] / p[V0] * ith0
+    q = a + 1.0
     qm = q ** (-1.0 / p[M])
     g = mu_star * qm
-    dg = de * qm + mu_star * (p[L0] / (p[M] * p[V0] * th0)) / th0 * qm / q
+    dg = de * qm + mu_star * a * ith0 * qm / (p[M] * q)
     return g, dg
+
+
+@numba.njit(cache=True)
+def g_and_dg(p, th0):
+    """g(θ0) and dg/dθ0."""
+    return _g_dg(p, 1.0 / th0)
 
 
 @numba.njit(cache=True)
@@ -319,18 +330,23 @@ def _slide_substep(p, Ts, th0, th1, th2, v, y0, Tna, Tnb, vs, Cs, h, gam):
     Tstar = Ts + h * Cs * (vs - gv * sign(Ts))
     absT = abs(Tstar)
     # θ_i(w) = (A_i + c_i w) / (1 + k_i w)
-    A0 = th0 * (1.0 - h * p[B] * gv / p[L0]) + h * p[B]
-    k0 = h * p[B] * gam / p[L0]
-    A1 = th1 * (1.0 - h * gv / p[L1]) + h * gv * p[C] * Tna / p[L1]
-    c1 = h * gam * p[C] * Tnb / p[L1]
-    k1 = h * gam / p[L1]
-    A2 = th2 * (1.0 - h * gv / p[L2]) + h * gv * p[D] * Tna / p[L2]
-    c2 = h * gam * p[D] * Tnb / p[L2]
-    k2 = h * gam / p[L2]
+    hL0 = h / p[L0]
+    hL1 = h / p[L1]
+    hL2 = h / p[L2]
+    A0 = th0 * (1.0 - p[B] * gv * hL0) + h * p[B]
+    k0 = p[B] * gam * hL0
+    A1 = th1 * (1.0 - gv * hL1) + gv * p[C] * Tna * hL1
+    c1 = gam * p[C] * Tnb * hL1
+    k1 = gam * hL1
+    A2 = th2 * (1.0 - gv * hL2) + gv * p[D] * Tna * hL2
+    c2 = gam * p[D] * Tnb * hL2
+    k2 = gam * hL2
     dslip0 = h * gv
     if A0 <= 0.0 or A1 < 0.0 or A2 < 0.0:
         # The explicit part of a γ < 1 step overshot (h too long): no solution.
         return np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan
+    iA0 = 1.0 / A0
+    same = k1 == k2  # L1 = L2 (Table 1): θ1 and θ2 share their denominator
 
     e = h * Cs * gam * V0_  # |T_s(h)| = absT − e (y^m − 1)
     # The root lies in (1, y_max] if the point slides at all: F(1) > 0 (the
@@ -350,15 +366,16 @@ def _slide_substep(p, Ts, th0, th1, th2, v, y0, Tna, Tnb, vs, Cs, h, gam):
         w = V0_ * (ym1 * y - 1.0)
         dw = m * V0_ * ym1
         q0 = 1.0 + k0 * w
-        th0e = A0 / q0
-        q1 = 1.0 + k1 * w
-        th1e = (A1 + c1 * w) / q1
-        q2 = 1.0 + k2 * w
-        th2e = (A2 + c2 * w) / q2
-        g, dg = g_and_dg(p, th0e)
+        r0 = 1.0 / q0
+        th0e = A0 * r0
+        r1 = 1.0 / (1.0 + k1 * w)
+        r2 = r1 if same else 1.0 / (1.0 + k2 * w)
+        th1e = (A1 + c1 * w) * r1
+        th2e = (A2 + c2 * w) * r2
+        g, dg = _g_dg(p, q0 * iA0)
         Th = th1e + th2e
         G = g * Th
-        dG_dw = dg * (-th0e * k0 / q0) * Th + g * ((c1 - k1 * th1e) / q1 + (c2 - k2 * th2e) / q2)
+        dG_dw = dg * (-th0e * k0 * r0) * Th + g * ((c1 - k1 * th1e) * r1 + (c2 - k2 * th2e) * r2)
         F = absT - e * (ym1 * y - 1.0) - G * y
         dF = -e * m * ym1 - G - y * dG_dw * dw
         if y == 1.0:  # F(1) itself
@@ -391,8 +408,9 @@ def _slide_substep(p, Ts, th0, th1, th2, v, y0, Tna, Tnb, vs, Cs, h, gam):
             ym1 = _pow(y, m - 1.0)
             w = V0_ * (ym1 * y - 1.0)
             th0e = A0 / (1.0 + k0 * w)
-            th1e = (A1 + c1 * w) / (1.0 + k1 * w)
-            th2e = (A2 + c2 * w) / (1.0 + k2 * w)
+            r1 = 1.0 / (1.0 + k1 * w)
+            th1e = (A1 + c1 * w) * r1
+            th2e = (A2 + c2 * w) * (r1 if same else 1.0 / (1.0 + k2 * w))
             break
         if abs(ynew - y) <= _NEWTON_RTOL * y:
             break  # keep y: the end state above belongs to it
