@@ -1,4 +1,4 @@
-"""The stability and end-to-end benchmarks run in their ``--smoke`` mode and write
+"""The stability, end-to-end and skipping benchmarks run in their ``--smoke`` mode and write
 their JSON.  Run under ``mpirun -n 2``: both ranks call each script's ``main``."""
 
 from __future__ import annotations
@@ -6,6 +6,8 @@ from __future__ import annotations
 import importlib.util
 import json
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -64,3 +66,17 @@ def test_end_to_end_smoke(comm, tmp_dir_shared):
     if comm.rank == 0:
         stored = json.loads((tmp_dir_shared / "results" / "end_to_end.json").read_text())
         assert stored["probe"]["in_process"]["split"] == split
+
+
+def test_skipping_smoke(comm, tmp_dir_shared):
+    """Every saving runs with and without it on the coarse mesh; the table and JSON are written."""
+    bench = _load("skipping")
+    doc = bench.main(["--smoke", "--out", str(tmp_dir_shared / "skip")], comm)
+    assert len(doc["rows"]) == len(bench.CASES)
+    for r in doc["rows"]:
+        assert r["median"]["on"]["total_s"] > 0 and np.isfinite(r["speedup_total"]), r["what"]
+    fields = next(r for r in doc["rows"] if r["saving"] == "fields")
+    assert fields["without"][0].startswith("output.fields=[1e-06")
+    if comm.rank == 0:
+        assert json.loads((tmp_dir_shared / "skip" / "skipping.json").read_text())["rows"]
+        assert (tmp_dir_shared / "skip" / "skipping.md").read_text().startswith("# Skipping")
