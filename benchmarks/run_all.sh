@@ -10,5 +10,6 @@ $MPI $PY benchmarks/interface_cost.py --law stuck
 $MPI $PY benchmarks/interface_cost.py
 $MPI $PY benchmarks/dt_convergence.py
 $PY benchmarks/end_to_end.py
+$MPI $PY benchmarks/skipping.py
 $MPI $PY benchmarks/stability.py
 $MPI $PY benchmarks/work_precision.py --quick
