@@ -101,9 +101,10 @@ STATE = ("theta0", "theta1", "theta2")
 # when the state is the one it was evaluated at (a point that slid through the
 # previous step), and as a lower bound while the point sticks and θ0 only grows
 # (g increases with θ0 when μs >= μd), so that a point well below its strength
-# costs no transcendental function at all.  The results are those of
-# evaluating g every time, bit for bit.  A state of three entries (no memo) is
-# accepted too.
+# costs no transcendental function at all.  Reused as the strength of the same
+# state, the memo is what evaluating g there gives, up to the last Newton
+# step's first-order update (round-off); as a bound it changes no decision.
+# A state of three entries (no memo) is accepted too.
 _KEY_TH0, _KEY_TH, _MEMO_G = 3, 4, 5
 N_STORAGE = 6  # len(STATE) + LAW.memo
 # relative margin on a remembered strength used as a lower bound for a larger
