@@ -35,6 +35,12 @@ SCENES = ["symmetric", "case1", "case2", "case3", "case4", "case5",
           "lineB_s6", "lineB_s10", "lineB_s16", "lineB_s30"]
 
 
+#: the per-figure demo (demos/paper/) showing each statement group's quantities next to the paper's figure
+DEMOS = {"symmetric": "fig07_symmetric.py", "case1": "fig08_09_case1.py", "case2": "fig10_11_case2.py",
+         "case3": "fig12_13_case3.py", "case4": "fig15_16_case4.py", "case5": "fig17_18_case5.py",
+         "all": "fig06_tip_speed.py", "lineA": "fig20_lineA.py", "lineB": "fig21_lineB.py"}
+
+
 class Run(NamedTuple):
     """A finished run's interface history (all SI)."""
 
@@ -154,7 +160,8 @@ def statements(runs: dict, speeds) -> list:
     out = []
 
     def add(group, text, value, ok):
-        out.append({"group": group, "statement": text, "fricfem": value, "ok": bool(ok)})
+        out.append({"group": group, "statement": text, "fricfem": value, "ok": bool(ok),
+                    "demo": f"demos/paper/{DEMOS[group]}"})
 
     sy = R["symmetric"]
     add("symmetric", "no sliding", f"max slip rate {sy.rate.max():.3g} m/s", sy.rate.max() == 0)
@@ -274,9 +281,10 @@ def markdown(rows, reading) -> str:
     lines = [f"Reading: direction = {reading.direction}, V_imp × {reading.v_scale:g}, "
              f"C_n, C_s × {reading.stiffness_scale:g}, mesh {reading.preset}: "
              f"**{sum(r['ok'] for r in rows)} / {len(rows)} ✓**", "",
-             "| | paper | fricfem | |", "|---|---|---|---|"]
+             "| | paper | fricfem | | figure demo |", "|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['group']} | {r['statement']} | {r['fricfem']} | {'✓' if r['ok'] else '✗'} |")
+        lines.append(f"| {r['group']} | {r['statement']} | {r['fricfem']} | {'✓' if r['ok'] else '✗'} "
+                     f"| `{r['demo']}` |")
     return "\n".join(lines) + "\n"
 
 
