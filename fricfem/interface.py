@@ -143,7 +143,10 @@ class Points(NamedTuple):
 
     Tn0, Ts0      initial normal / shear traction [Pa] (Σ0 and the initial shear)
     Cn, Cs        interface stiffnesses [Pa/m]
-    params        float64[n, n_params]  friction-law parameters
+    param_rows    float64[k, n_params]  the distinct friction-law parameter sets
+    param_index   int32[n]  the point's row in ``param_rows`` (``params``: the
+                  point's own parameters, float64[n, n_params]; one row for all
+                  points of a uniform interface keeps the kernel's data small)
     state         float64[n, n_state + memo]   friction-law state, then the law's memo
     Tn, Ts        current tractions [Pa]
     dTs           change of T_s over the last step, Ṫ_s dt [Pa]
@@ -161,7 +164,8 @@ class Points(NamedTuple):
     Ts0: np.ndarray
     Cn: np.ndarray
     Cs: np.ndarray
-    params: np.ndarray
+    param_rows: np.ndarray
+    param_index: np.ndarray
     state: np.ndarray
     Tn: np.ndarray
     Ts: np.ndarray
@@ -177,6 +181,11 @@ class Points(NamedTuple):
     is_open: np.ndarray
     nsub: np.ndarray
 
+    @property
+    def params(self) -> np.ndarray:
+        """float64[n, n_params]: each point's friction-law parameters."""
+        return self.param_rows[self.param_index]
+
 
 def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
     """Initial interface points: ``params`` float64[n, n_params] (packed per point);
@@ -184,12 +193,13 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
     full = lambda v: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()  # noqa: E731
     Tn0, Ts0, Cn, Cs = full(Tn0), full(Ts0), full(Cn), full(Cs)
     params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
+    rows, index = np.unique(params, axis=0, return_inverse=True)
     state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
     for q in range(n):  # once, at set-up
         state[q] = storage(law, law.initial_state(params[q], Tn0[q], Ts0[q]))
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
-        Tn0, Ts0, Cn, Cs, params, state, Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
+        Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state, Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
 
@@ -211,13 +221,13 @@ def _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy):
 _f8v = numba.types.float64[::1]
 _f8m = numba.types.float64[:, ::1]
 _KERNEL_SIGNATURE = numba.types.void(
-    ADVANCE_TYPE, _f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8m, _f8m,
-    _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, numba.types.int8[::1],
+    ADVANCE_TYPE, _f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8m,
+    numba.types.int32[::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, numba.types.int8[::1],
     numba.types.int32[::1], numba.types.float64,
 )
 
 
-def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, params, state,
+def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, param_rows, param_index, state,
                      Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub, dt):
     """One bulk step of every interface point on this rank.
 
@@ -252,7 +262,7 @@ def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, p
                 is_open[q] = 1
                 nsub[q] = 0
             else:
-                ts_new, sr, dsl, dwk, ns = advance(params[q], state[q], ts_old, tn_old, tn_new,
+                ts_new, sr, dsl, dwk, ns = advance(param_rows[param_index[q]], state[q], ts_old, tn_old, tn_new,
                                                    vs, p_Cs[q], dt)
                 slip[q] += dsl
                 dissipated[q] += dwk
@@ -324,7 +334,7 @@ class Interface:
         g, p = self.geometry, self.points
         w = self._gather(u)
         interface_kernel(self.law.advance, w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0,
-                         p.Cn, p.Cs, p.params, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n,
+                         p.Cn, p.Cs, p.param_rows, p.param_index, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n,
                          p.rate_s, p.slip, p.slip_rate, p.work, p.dissipated, p.is_open, p.nsub, dt)
         self._add_back(f)
 
