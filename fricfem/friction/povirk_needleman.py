@@ -122,7 +122,7 @@ _NEWTON_RTOL = 1e-13
 _NEWTON_CLOSE = 1e-8
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(cache=True)
 def _int_exponent(e):
     """``e`` as an int when it is a whole number in [0, 16], else −1."""
     if 0.0 <= e <= 16.0 and e == math.floor(e):
@@ -130,7 +130,7 @@ def _int_exponent(e):
     return -1
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(cache=True)
 def _pow(y, e):
     """y**e; by repeated multiplication when e is a small whole number (m = 5
     of Table 1: y**5 and y**4 then cost four products instead of a ``pow``)."""
@@ -143,7 +143,7 @@ def _pow(y, e):
     return r
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(cache=True)
 def _g_dg(p, ith0):
     """g(θ0) and dg/dθ0 from 1/θ0 (paper's Appendix, with Q = L0/(V0 θ0) + 1).
 
@@ -420,7 +420,7 @@ def _slide_substep(p, Ts, th0, th1, th2, v, y0, Tna, Tnb, vs, Cs, h, gam):
     return Ts1, th0e, th1e, th2e, w, y, G, dslip0 + h * gam * w
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(cache=True)
 def _remember(s, th0, Th, G):
     """Keep G = g(θ0)·Th in the point's memo (if it has one)."""
     if s.size >= N_STORAGE:
