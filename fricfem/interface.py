@@ -32,6 +32,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .friction import povirk_needleman, slip_weakening, stuck
 from .friction.base import ADVANCE_TYPE, storage
 from .mesh import TAGS
 
@@ -284,15 +285,61 @@ def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, p
             _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy)
 
 
-# Compiled once for every law (the law's ``advance`` is passed in as a
-# first-class function of type ADVANCE_TYPE), so the on-disk cache holds one
-# entry.  Without numba's reference counting (``_nrt=False``: the kernel
-# allocates nothing): the point's parameter and state rows are then plain
-# views, which halves the cost of a sticking point (measured on the reference
-# mesh, 912 points: 72 → 50 µs per step while sticking, 226 → 204 µs while
-# sliding).  A kernel specialised on each law, with ``advance`` inlined, was
-# as fast while sticking and 45 % slower while sliding.
+# Two compilations of ``advance_points``, both without numba's reference
+# counting (``_nrt=False``; the kernel allocates nothing, and the point rows it
+# hands to the law are then plain views).
+#
+# * One kernel per registered law, calling the law's ``advance`` directly
+#   (specialised on its dispatcher, so the call is resolved at compile time and
+#   inlined).  Measured on the reference mesh (912 points, serial, kernel
+#   alone, data evicted from cache by a bulk sweep first): 43 µs per step while
+#   the interface sticks, 162 µs with ~850 points sliding.
+# * ``interface_kernel``, compiled once for any other ``advance`` (a law
+#   registered elsewhere), which is passed in as a first-class function of type
+#   ADVANCE_TYPE.  Slower (134 and 264 µs in the same test): numba converts the
+#   law's dispatcher into a function pointer at every call, a Python-level
+#   lookup that costs 15–70 µs.
+#
+# All are cached on disk.
 interface_kernel = numba.njit(_KERNEL_SIGNATURE, cache=True, _nrt=False)(advance_points)
+_specialised = numba.njit(_nrt=False)(advance_points)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _povirk_needleman_kernel(*args):
+    _specialised(povirk_needleman.advance, *args)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _povirk_needleman_rate_tangent_kernel(*args):
+    _specialised(povirk_needleman.rate_tangent_advance, *args)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _slip_weakening_kernel(*args):
+    _specialised(slip_weakening.advance, *args)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _stuck_kernel(*args):
+    _specialised(stuck.advance, *args)
+
+
+_KERNELS = {
+    povirk_needleman.advance: _povirk_needleman_kernel,
+    povirk_needleman.rate_tangent_advance: _povirk_needleman_rate_tangent_kernel,
+    slip_weakening.advance: _slip_weakening_kernel,
+    stuck.advance: _stuck_kernel,
+}
+
+
+def point_kernel(advance):
+    """The interface kernel for a law's ``advance``: ``kernel(w, fw, ...)`` with
+    the arguments of :func:`advance_points` after ``advance``."""
+    kernel = _KERNELS.get(advance)
+    if kernel is not None:
+        return kernel
+    return lambda *args: interface_kernel(advance, *args)
 
 
 @numba.njit(numba.types.void(_f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v), cache=True)
@@ -318,6 +365,7 @@ class Interface:
         self.geometry = geometry
         self.points = points
         self.law = law
+        self.kernel = point_kernel(law.advance)
 
     def _gather(self, u: PETSc.Vec) -> np.ndarray:
         g = self.geometry
@@ -333,7 +381,7 @@ class Interface:
         displacement is ``u``, and add the negative interface forces into ``f``."""
         g, p = self.geometry, self.points
         w = self._gather(u)
-        interface_kernel(self.law.advance, w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0,
+        self.kernel(w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0,
                          p.Cn, p.Cs, p.param_rows, p.param_index, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n,
                          p.rate_s, p.slip, p.slip_rate, p.work, p.dissipated, p.is_open, p.nsub, dt)
         self._add_back(f)
