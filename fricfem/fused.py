@@ -30,14 +30,15 @@ that need more than the plain update are listed once, sorted ("special"):
 
 Order of a step::
 
-    begin gathering the off-rank displacements
-    pre-pass; Interface.add_forces (gather, kernel, reverse scatter into g)
+    begin gathering the off-rank displacements, and the interface's
     sweep every row but the interface and MPI boundary rows ("deferred")
     end the gather of off-rank displacements (it travelled during the sweep)
+    pre-pass; Interface.add_forces (end its gather, kernel, reverse scatter into g)
     update the deferred rows
 
-(When an interface row has off-rank columns on some rank, the gather is
-ended before the pre-pass instead.)
+The sweep neither reads nor writes ``g`` and leaves u^n in place, so the
+interface works after it on the same u^n, and both gathers travel while the
+rows are swept.
 
 Round-off.  Each row is summed in the order of PETSc's AIJ product (columns
 in order; on a boundary row the owned columns first, then the off-rank ones),
@@ -418,10 +419,6 @@ class FusedBulk:
         comm = K.getComm().tompi4py()
         self.ghost_scatter = None
         self.ug = np.zeros(0)
-        # an interface row with off-rank columns needs them before the interface
-        # forces are added (to sum f as the two-pass step does)
-        crossing = self.special.preloaded.astype(bool) & _has_off_rank(self.rows, self.special.node[:-1], n_nodes)
-        self.ghosts_first = comm.allreduce(bool(crossing.any()), op=MPI.LOR)
         if comm.allreduce(len(self.rows.ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
             gdofs = (2 * self.rows.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
             self.ghost_vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
@@ -476,24 +473,25 @@ class FusedBulk:
         t0 = time.perf_counter()
         if self.ghost_scatter is not None:
             self.ghost_scatter.begin(u, self.ghost_vec, insert, forward)
-            if self.ghosts_first:
-                self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         if self.interface is not None:
-            preload(r.ptr, r.col, r.val, ua, self.ug, ga, sp.node, sp.preloaded)
-            self.interface.add_forces(u, self.g, dt)  # g += −F_int(u^n)
+            self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
         uku, work = sweep(r.ptr, r.col, r.val, ua, una, va, self.dt_minv, ga, sp.node, sp.impact, sp.deferred,
                           sp.preloaded, self.imp_mass, imp_prev, dt, u0, u1, v_bc, *load, self.act)
         t2 = time.perf_counter()
-        if self.ghost_scatter is not None and not self.ghosts_first:
+        if self.ghost_scatter is not None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
+        if self.interface is not None:
+            preload(r.ptr, r.col, r.val, ua, self.ug, ga, sp.node, sp.preloaded)
+            self.interface.add_forces(u, self.g, dt, started=True)  # g += −F_int(u^n)
+        t4 = time.perf_counter()
         uku_d, work_d = sweep_deferred(r.ptr, r.col, r.val, ua, self.ug, una, va, self.dt_minv, ga, sp.node,
                                        sp.impact, sp.deferred, sp.preloaded, self.imp_mass, imp_prev,
                                        dt, u0, u1, v_bc, *load, self.act)
-        t4 = time.perf_counter()
+        t5 = time.perf_counter()
         sec = self.seconds
-        sec["interface"] += t1 - t0
-        sec["sweep"] += (t2 - t1) + (t4 - t3)
+        sec["interface"] += (t1 - t0) + (t4 - t3)
+        sec["sweep"] += (t2 - t1) + (t5 - t4)
         sec["wait"] += t3 - t2
         return uku + uku_d, work + work_d

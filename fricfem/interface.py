@@ -376,14 +376,25 @@ class Interface:
         g = self.geometry
         g.scatter.scatter(g.force, f, PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
 
-    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float) -> None:
+    def begin_gather(self, u: PETSc.Vec) -> None:
+        """Start gathering the displacements ``u`` the interface needs (from other
+        ranks too); :meth:`add_forces` with ``started=True`` ends it."""
+        g = self.geometry
+        g.scatter.begin(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+
+    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, started: bool = False) -> None:
         """Advance every interface point to the end of the step whose end
-        displacement is ``u``, and add the negative interface forces into ``f``."""
+        displacement is ``u``, and add the negative interface forces into ``f``.
+        ``started``: :meth:`begin_gather` was called with ``u``."""
         g, p = self.geometry, self.points
-        w = self._gather(u)
-        self.kernel(w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0,
-                         p.Cn, p.Cs, p.param_rows, p.param_index, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n,
-                         p.rate_s, p.slip, p.slip_rate, p.work, p.dissipated, p.is_open, p.nsub, dt)
+        if started:
+            g.scatter.end(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+            w = g.work.array
+        else:
+            w = self._gather(u)
+        self.kernel(w, g.force.array, g.seg_w, g.shape, g.wq, p.Tn0, p.Ts0, p.Cn, p.Cs, p.param_rows,
+                    p.param_index, p.state, p.Tn, p.Ts, p.dTs, p.jump_n, p.jump_s, p.rate_n, p.rate_s, p.slip,
+                    p.slip_rate, p.work, p.dissipated, p.is_open, p.nsub, dt)
         self._add_back(f)
 
     def add_spring_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
