@@ -25,6 +25,7 @@ forces back with the reverse scatter.  No ghosts are involved.
 
 from __future__ import annotations
 
+import warnings
 from typing import NamedTuple
 
 import numba
@@ -300,7 +301,11 @@ def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, p
 #   law's dispatcher into a function pointer at every call, a Python-level
 #   lookup that costs 15–70 µs.
 #
-# All are cached on disk.
+# All are cached on disk (hence one module-level wrapper per law: numba caches
+# module-level functions, not ones a factory makes).
+# (numba types a law's dispatcher passed to ``_specialised`` as a first-class
+# function and warns that the feature is experimental; it is what fricfem uses.)
+warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 interface_kernel = numba.njit(_KERNEL_SIGNATURE, cache=True, _nrt=False)(advance_points)
 _specialised = numba.njit(_nrt=False)(advance_points)
 
