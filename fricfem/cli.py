@@ -44,6 +44,9 @@ def _mesh(args) -> int:
 def _scenes(args) -> int:
     from . import config
 
+    if args.keys:
+        print(config.describe_keys())
+        return 0
     for name, path in config.shipped().items():
         scene = config.load(name)
         print(f"{name:12s} {scene.description}")
@@ -98,7 +101,9 @@ def main(argv=None) -> int:
     p.add_argument("--info", action="store_true", help="print JSON with cells, dofs, interface_facets, min_altitude_m")
     p.add_argument("--write", metavar="FILE.msh", help="also write the gmsh model")
     p.set_defaults(func=_mesh)
-    p = sub.add_parser("scenes", help="list the shipped scenes")
+    p = sub.add_parser("scenes", help="list the shipped scenes (--keys: every scene key)")
+    p.add_argument("--keys", action="store_true",
+                   help="every key a scene may set: default, unit, allowed range, meaning")
     p.set_defaults(func=_scenes)
     p = sub.add_parser("run", help="run a scene (shipped name or .toml file); works under mpirun")
     p.add_argument("scene", help="shipped scene name (see `fricfem scenes`) or path to a .toml file")

@@ -123,6 +123,25 @@ SCHEMA = {
 }
 
 
+def describe_keys() -> str:
+    """Every scene key, one line each: ``section.key = default [unit] range: meaning``
+    (friction parameters: see the law, e.g. docs/friction.md)."""
+    lines = []
+    for section, fields in SCHEMA.items():
+        for key, f in fields.items():
+            name = f"{section}.{key}" if section else key
+            if f.low is None and f.high is None:
+                rng = ""
+            else:
+                lo = "(" if f.open_low else "["
+                hi = ")" if f.open_high else "]"
+                rng = f" {lo}{'-inf' if f.low is None else f'{f.low:g}'}, {'inf' if f.high is None else f'{f.high:g}'}{hi}"
+            unit = f" {f.unit}" if f.unit else ""
+            lines.append(f"{name} = {f.default!r}{unit}{rng}: {f.doc}")
+    lines.append("friction.params.<parameter>: the law's parameters, with units and ranges, in docs/friction.md")
+    return "\n".join(lines)
+
+
 class Scene(NamedTuple):
     """A validated scene (plain data; everything a run needs)."""
 

@@ -23,6 +23,16 @@ def test_shipped_scene_validates(name):
     assert scene.t_end > 0 and scene.sigma0 > 0
 
 
+def test_every_scene_key_is_listed():
+    """`fricfem scenes --keys` names every key of the schema with its default."""
+    text = config.describe_keys()
+    for section, fields in config.SCHEMA.items():
+        for key, f in fields.items():
+            name = f"{section}.{key}" if section else key
+            assert f"\n{name} = {f.default!r}" in "\n" + text, name
+    assert "loading.kind = 'velocity'" in text and "time.skip_quiet = True" in text
+
+
 def test_paper_cases_carry_the_paper_loading():
     table = {"case1": (6e6, 2.0), "case2": (30e6, 2.0), "case3": (10e6, 20.0), "case4": (0.9e6, 10.0),
              "case5": (40e6, 2.0), "symmetric": (10e6, 5.0)}
