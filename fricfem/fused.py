@@ -220,9 +220,10 @@ def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
 
 
 @numba.njit(cache=True)
-def preload(ptr, col, val, u, ug, g, sp_node, sp_preloaded):
+def preload(ptr, col, val, u, ug, g, sp_node, sp_preloaded, sp_ku):
     """``g = K u`` at the preloaded special nodes (before the interface adds its
-    forces); ``ug`` the gathered off-rank displacements, if a row needs them."""
+    forces), and a copy in ``sp_ku`` (float64[2 n_special], by special index)
+    for the energy; ``ug`` the gathered off-rank displacements, if a row needs them."""
     n = ptr.size - 1
     for k in range(sp_preloaded.size):
         if sp_preloaded[k]:
@@ -230,6 +231,8 @@ def preload(ptr, col, val, u, ug, g, sp_node, sp_preloaded):
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
             g[2 * I] = s0
             g[2 * I + 1] = s1
+            sp_ku[2 * k] = s0
+            sp_ku[2 * k + 1] = s1
 
 
 @numba.njit(cache=True)
@@ -344,9 +347,10 @@ def sweep(ptr, col, val, u, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred
 
 @numba.njit(cache=True)
 def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact, sp_deferred,
-                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv, act):
+                   sp_preloaded, imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv, act, sp_ku):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
-    gathered off-rank displacements.  Otherwise as :func:`sweep`."""
+    gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
+    ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
     n = ptr.size - 1
     uku = 0.0
     work = 0.0
@@ -355,7 +359,11 @@ def sweep_deferred(ptr, col, val, u, ug, unew, v, dt_minv, g, sp_node, sp_impact
             continue
         I = sp_node[kk]
         i = 2 * I
-        s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
+        if sp_preloaded[kk]:
+            s0 = sp_ku[2 * kk]
+            s1 = sp_ku[2 * kk + 1]
+        else:
+            s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
         work += _special_update(I, kk, s0, s1, u, unew, v, dt_minv, g, sp_impact, sp_preloaded,
                                 imp_mass, imp_prev, dt, u0, u1, v_bc, imp_force, imp_damp, sv)
@@ -415,6 +423,7 @@ class FusedBulk:
         self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, self.g))
         n_nodes = len(self.rows.ptr) - 1
         self.act = np.full(n_nodes, SPREAD, dtype=np.int8)  # awake until rest()
+        self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the preloaded rows, see preload
         self._expect = None  # (id of the next u, next t) of an unbroken sequence of steps
         comm = K.getComm().tompi4py()
         self.ghost_scatter = None
@@ -483,12 +492,12 @@ class FusedBulk:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         if self.interface is not None:
-            preload(r.ptr, r.col, r.val, ua, self.ug, ga, sp.node, sp.preloaded)
+            preload(r.ptr, r.col, r.val, ua, self.ug, ga, sp.node, sp.preloaded, self.sp_ku)
             self.interface.add_forces(u, self.g, dt, started=True)  # g += −F_int(u^n)
         t4 = time.perf_counter()
         uku_d, work_d = sweep_deferred(r.ptr, r.col, r.val, ua, self.ug, una, va, self.dt_minv, ga, sp.node,
                                        sp.impact, sp.deferred, sp.preloaded, self.imp_mass, imp_prev,
-                                       dt, u0, u1, v_bc, *load, self.act)
+                                       dt, u0, u1, v_bc, *load, self.act, self.sp_ku)
         t5 = time.perf_counter()
         sec = self.seconds
         sec["interface"] += (t1 - t0) + (t4 - t3)
