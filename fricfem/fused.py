@@ -454,7 +454,7 @@ class FusedBulk:
 
     @property
     def active_fraction(self) -> float:
-        """Share of this rank's rows computed in the last step."""
+        """Share of this rank's rows that are computed (not quiet) in the next step."""
         return float(np.count_nonzero(self.act)) / max(len(self.act), 1)
 
     def advance(self, u: PETSc.Vec, u_next: PETSc.Vec, v: PETSc.Vec, imp_prev: np.ndarray, t: float):

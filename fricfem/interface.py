@@ -201,7 +201,8 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
         state[q] = storage(law, law.initial_state(params[q], Tn0[q], Ts0[q]))
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
-        Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state, Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
+        Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state,
+        Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
 
@@ -224,13 +225,13 @@ _f8v = numba.types.float64[::1]
 _f8m = numba.types.float64[:, ::1]
 _KERNEL_SIGNATURE = numba.types.void(
     ADVANCE_TYPE, _f8v, _f8v, numba.types.int32[:, ::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8m,
-    numba.types.int32[::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, numba.types.int8[::1],
-    numba.types.int32[::1], numba.types.float64,
+    numba.types.int32[::1], _f8m, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v, _f8v,
+    numba.types.int8[::1], numba.types.int32[::1], numba.types.float64,
 )
 
 
 def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, param_rows, param_index, state,
-                     Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub, dt):
+                   Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub, dt):
     """One bulk step of every interface point on this rank.
 
     ``w`` holds the gathered displacements at the end of the step; the jumps at
@@ -264,8 +265,8 @@ def advance_points(advance, w, fw, seg_w, shape, wq, p_Tn0, p_Ts0, p_Cn, p_Cs, p
                 is_open[q] = 1
                 nsub[q] = 0
             else:
-                ts_new, sr, dsl, dwk, ns = advance(param_rows[param_index[q]], state[q], ts_old, tn_old, tn_new,
-                                                   vs, p_Cs[q], dt)
+                ts_new, sr, dsl, dwk, ns = advance(param_rows[param_index[q]], state[q], ts_old, tn_old,
+                                                   tn_new, vs, p_Cs[q], dt)
                 slip[q] += dsl
                 dissipated[q] += dwk
                 is_open[q] = 0
