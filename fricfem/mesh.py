@@ -197,34 +197,116 @@ def plate_grid(spec: MeshSpec, upper: bool) -> PlateGrid:
     return PlateGrid(x, cells, edges)
 
 
-def _gmsh_model(spec: MeshSpec):
-    """Put both plates into the current gmsh model as discrete entities with
-    physical groups named after :data:`TAGS`."""
+def grid_arrays(spec: MeshSpec) -> tuple:
+    """Both plates as one grid, lower plate first (numpy, no dolfinx).
+
+    Returns (x float64[n_nodes, 2], cells int64[n_cells, 3], cell_tags
+    int32[n_cells], facets int64[n_facets, 2], facet_tags int32[n_facets]);
+    facets are grouped by tag in increasing tag order, lower plate before
+    upper within a tag (the order a gmsh model of the grid is read back in).
+    """
+    lo, up = plate_grid(spec, False), plate_grid(spec, True)
+    off = len(lo.x)
+    x = np.vstack([lo.x, up.x])
+    cells = np.vstack([lo.cells, up.cells + off])
+    cell_tags = np.concatenate([np.full(len(lo.cells), TAGS["lower"]), np.full(len(up.cells), TAGS["upper"])])
+    facets, facet_tags = [], []
+    for name in sorted({*lo.edges, *up.edges}, key=lambda n: TAGS[n]):
+        for g, shift in ((lo, 0), (up, off)):
+            e = g.edges.get(name)
+            if e is not None and len(e):
+                facets.append(e + shift)
+                facet_tags.append(np.full(len(e), TAGS[name]))
+    return (x, cells.astype(np.int64), cell_tags.astype(np.int32), np.vstack(facets).astype(np.int64),
+            np.concatenate(facet_tags).astype(np.int32))
+
+
+def write_msh(spec: MeshSpec, path: str) -> None:
+    """Write the two-plate grid as a gmsh model (.msh) with physical groups named after :data:`TAGS`."""
     import gmsh
 
-    offset = 0
-    entity = 0
-    groups: dict[str, list] = {}
-    for upper in (False, True):
-        g = plate_grid(spec, upper)
-        tags = np.arange(1, len(g.x) + 1, dtype=np.uint64) + offset
-        entity += 1
-        surf = gmsh.model.addDiscreteEntity(2, entity)
-        gmsh.model.mesh.addNodes(2, surf, tags, np.column_stack([g.x, np.zeros(len(g.x))]).ravel())
-        gmsh.model.mesh.addElementsByType(surf, 2, [], (g.cells + 1 + offset).ravel())
-        groups.setdefault("upper" if upper else "lower", []).append((2, surf))
-        for name, edges in g.edges.items():
-            if len(edges) == 0:
-                continue
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("fricfem_plates")
+        offset = 0
+        entity = 0
+        groups: dict[str, list] = {}
+        for upper in (False, True):
+            g = plate_grid(spec, upper)
+            tags = np.arange(1, len(g.x) + 1, dtype=np.uint64) + offset
             entity += 1
-            curve = gmsh.model.addDiscreteEntity(1, entity)
-            gmsh.model.mesh.addElementsByType(curve, 1, [], (edges + 1 + offset).ravel())
-            groups.setdefault(name, []).append((1, curve))
-        offset += len(g.x)
-    for name, ents in groups.items():
-        dim = ents[0][0]
-        gmsh.model.addPhysicalGroup(dim, [t for _, t in ents], TAGS[name])
-        gmsh.model.setPhysicalName(dim, TAGS[name], name)
+            surf = gmsh.model.addDiscreteEntity(2, entity)
+            gmsh.model.mesh.addNodes(2, surf, tags, np.column_stack([g.x, np.zeros(len(g.x))]).ravel())
+            gmsh.model.mesh.addElementsByType(surf, 2, [], (g.cells + 1 + offset).ravel())
+            groups.setdefault("upper" if upper else "lower", []).append((2, surf))
+            for name, edges in g.edges.items():
+                if len(edges) == 0:
+                    continue
+                entity += 1
+                curve = gmsh.model.addDiscreteEntity(1, entity)
+                gmsh.model.mesh.addElementsByType(curve, 1, [], (edges + 1 + offset).ravel())
+                groups.setdefault(name, []).append((1, curve))
+            offset += len(g.x)
+        for name, ents in groups.items():
+            dim = ents[0][0]
+            gmsh.model.addPhysicalGroup(dim, [t for _, t in ents], TAGS[name])
+            gmsh.model.setPhysicalName(dim, TAGS[name], name)
+        gmsh.write(path)
+    finally:
+        gmsh.finalize()
+
+
+def bisection_parts(centroids: np.ndarray, nparts: int) -> np.ndarray:
+    """int32[n]: a part per point by recursive coordinate bisection.
+
+    Each set is cut across its longer extent so that the two halves hold
+    cell counts in the ratio of the parts they get; ties are broken by the
+    point's index, so the result depends on nothing but the points.  On the
+    two-plate grid two parts are the two plates (the cut lies between them).
+    """
+    parts = np.zeros(len(centroids), dtype=np.int32)
+
+    def split(ids, first, n):
+        if n == 1 or len(ids) == 0:
+            parts[ids] = first
+            return
+        c = centroids[ids]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        order = ids[np.lexsort((ids, c[:, axis]))]
+        n1 = n // 2
+        k = int(round(len(ids) * n1 / n))
+        split(order[:k], first, n1)
+        split(order[k:], first + n1, n - n1)
+
+    split(np.arange(len(centroids)), 0, nparts)
+    return parts
+
+
+def _partitioner(centroids: np.ndarray):
+    """A dolfinx cell partitioner that deals the cells by :func:`bisection_parts`
+    (all cells are on the calling communicator's rank 0 when it runs), with
+    ghosts on the parts that hold a facet neighbour when ghosting is asked for.
+    The partition, hence every result, is the same from one run to the next."""
+    import dolfinx.cpp as cpp
+
+    def part(comm, nparts, graph, ghosting):
+        n = len(graph.offsets) - 1
+        if n == 0:
+            return cpp.graph.AdjacencyList_int32(np.zeros(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
+        if n != len(centroids):
+            raise RuntimeError(f"mesh: the partitioner got {n} cells, expected {len(centroids)} on one rank")
+        owner = bisection_parts(centroids, nparts)
+        if not ghosting:
+            return cpp.graph.AdjacencyList_int32(owner, np.arange(n + 1, dtype=np.int32))
+        adj, off = np.asarray(graph.array), np.asarray(graph.offsets)
+        dest = [[int(o), *sorted(set(owner[adj[off[i]:off[i + 1]]].tolist()) - {int(o)})]
+                for i, o in enumerate(owner)]
+        counts = np.array([len(d) for d in dest], dtype=np.int32)
+        return cpp.graph.AdjacencyList_int32(np.concatenate(dest).astype(np.int32),
+                                             np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
+
+    return cpp.mesh.create_cell_partitioner(part)
 
 
 class PlateMesh(NamedTuple):
@@ -237,27 +319,35 @@ class PlateMesh(NamedTuple):
 
 
 def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
-    """Build the two-plate mesh on rank 0 with gmsh and distribute it over ``comm``.
+    """Build the two-plate mesh on rank 0 and distribute it over ``comm``
+    (collective); the partition is deterministic (:func:`bisection_parts`).
 
-    ``msh_file``: also write the gmsh model there (rank 0).
+    ``msh_file``: also write the grid there as a gmsh model (rank 0).
     """
+    import dolfinx.cpp as cpp
+    import dolfinx.mesh as dmesh
     from dolfinx.io import gmshio
 
     spec.check()
-    import gmsh
-
     if comm.rank == 0:
-        gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("fricfem_plates")
-        _gmsh_model(spec)
+        x, cells, cell_tags, facets, facet_tags = grid_arrays(spec)
+        centroids = x[cells].mean(axis=1)
         if msh_file:
-            gmsh.write(msh_file)
-    try:
-        msh, ct, ft = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+            write_msh(spec, msh_file)
+    else:
+        x, cells, centroids = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 2))
+        cell_tags, facets, facet_tags = (np.zeros(0, dtype=np.int32), np.zeros((0, 2), dtype=np.int64),
+                                         np.zeros(0, dtype=np.int32))
+    msh = dmesh.create_mesh(comm, cells, x, gmshio.ufl_mesh(2, 2), partitioner=_partitioner(centroids))
+    tdim = msh.topology.dim
+    ents, vals = cpp.io.distribute_entity_data(msh._mesh, tdim, cells, cell_tags)
+    msh.topology.create_connectivity(tdim, 0)
+    ct = dmesh.meshtags_from_entities(msh, tdim, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+    ct.name = "Cell tags"
+    ents, vals = cpp.io.distribute_entity_data(msh._mesh, tdim - 1, facets, facet_tags)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    ft = dmesh.meshtags_from_entities(msh, tdim - 1, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+    ft.name = "Facet tags"
     msh.topology.create_connectivity(1, 2)
     return PlateMesh(msh, ct, ft, spec)
 

@@ -29,7 +29,7 @@ STAMP="$VENV/.fricfem-setup.stamp"
 APT_PACKAGES=(
   python3 python3-venv python3-dev python3-setuptools python3-wheel
   python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh
-  python3-numba python3-h5py python3-matplotlib python3-pytest
+  python3-numba python3-h5py python3-matplotlib python3-pytest python3-scipy
   openmpi-bin make ca-certificates
   # loaded at run time by the VTK wheel for off-screen (EGL) rendering
   libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libx11-6
