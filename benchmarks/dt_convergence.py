@@ -23,7 +23,8 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, run
+from fricfem import load_scene
+from fricfem import runner
 
 logging.getLogger().setLevel(logging.WARNING)
 ap = argparse.ArgumentParser()
@@ -39,10 +40,10 @@ results = {}
 for label, (base, extra) in CASES.items():
     hist = {}
     for s in SAFETY:
-        scene = config.load(base, extra + [f"time.dt_safety={s}", "output.fields=[]", "time.end=34e-6",
+        scene = load_scene(base, extra + [f"time.dt_safety={s}", "output.fields=[]", "time.end=34e-6",
                                             f"mesh.preset='{a.preset}'"])
         d = Path(a.work) / f"{label}_s{s}"
-        summ = run.run_scene(scene, d, comm, overwrite=True, quiet=True)
+        summ = runner.run_scene(scene, d, comm, overwrite=True, quiet=True)
         if comm.rank == 0:
             with h5py.File(d / "interface.h5", "r") as f:
                 st = f["stations/x16.1mm"]

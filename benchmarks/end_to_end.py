@@ -26,8 +26,8 @@
 #    and the run's ``summary.json`` split (setup / loop / output);
 # 2. a *probe*: the same run in a Python process that first wraps
 #    ``dolfinx.jit.ffcx_jit``, numba's ``Dispatcher.compile`` (compilation
-#    *and* cache loading), ``fricfem.mesh.build``, ``solver.stiffness``,
-#    ``solver.lumped_mass`` and ``solver.max_eigenvalue`` with timers, so that
+#    *and* cache loading), ``fricfem.model.mesh.build``, ``assembly.stiffness``,
+#    ``assembly.lumped_mass`` and ``assembly.max_eigenvalue`` with timers, so that
 #    JIT time is separated from the phase it happens in (mean over ranks, so
 #    that the phases add up).
 #
@@ -136,20 +136,22 @@ def probe(scene: str, sets: list, out: Path, comm=None) -> dict:
         from mpi4py import MPI
 
         t_mid = time.perf_counter()
-        from fricfem import mesh, run, solver
+        from fricfem.model import mesh as mesh
+        from fricfem import load_scene
+        from fricfem import runner
+        from fricfem.model import build as build_mod
 
         t_import = time.perf_counter() - t0 + t_numba_import
         t_fricfem_import = time.perf_counter() - t_mid
         comm = comm or MPI.COMM_WORLD
         timers.wrap(mesh, "build", "mesh")
-        timers.wrap(solver, "stiffness", "stiffness")
-        timers.wrap(solver, "lumped_mass", "mass")
-        timers.wrap(solver, "max_eigenvalue", "dt")
-        from fricfem import config
+        timers.wrap(build_mod, "stiffness", "stiffness")
+        timers.wrap(build_mod, "lumped_mass", "mass")
+        timers.wrap(build_mod, "max_eigenvalue", "dt")
 
-        cfg = config.load(scene, sets)
+        cfg = load_scene(scene, sets)
         t_run = time.perf_counter()
-        summary = run.run_scene(cfg, out, comm, overwrite=True, quiet=True)
+        summary = runner.run_scene(cfg, out, comm, overwrite=True, quiet=True)
     finally:
         timers.restore()
     w = summary["wall_s"]
@@ -383,7 +385,7 @@ def table(doc: dict) -> str:
     x = doc["extras"]
     lines += ["", "| other (warm caches; median) | [s] |", "|---|---|",
               f"| `mpirun -n {doc['np']} python -c 'from mpi4py import MPI'` | {x['mpirun_python_s']:.2f} |",
-              f"| import of fricfem.run with dolfinx, PETSc, numba (probe, in-process) | "
+              f"| import of fricfem.runner with dolfinx, PETSc, numba (probe, in-process) | "
               f"{med(r['import_s'] for r in doc['probe']['warm']):.2f} |",
               f"| of which fricfem's own modules (numba cache loads included) | "
               f"{med(r['import_fricfem_s'] for r in doc['probe']['warm']):.2f} |",

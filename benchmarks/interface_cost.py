@@ -2,12 +2,13 @@
 #
 # Runs Case I's geometry at V_imp = 10 m/s (sliding crack-like from 9 µs) on
 # the reference mesh with the Povirk–Needleman law and, over the steps from
-# 20 to 32 µs (while ~40 mm of interface slides), reads the step's named
-# timers: `bulk` (PETSc MatMult K·u), `interface` (PETSc gather of the partner
+# 20 to 32 µs (while ~40 mm of interface slides), reads the fused step's phase
+# timers (``State.seconds``): `sweep` (the one pass over the rows of K that
+# computes K·u and updates v and u), `interface` (PETSc gather of the partner
 # dofs, the numba kernel with the law's adaptive sub-steps, reverse
-# scatter-add) and `update` (the fused leapfrog pass, the struck edge and its
-# work).  Prints µs per step per phase, interface / K·u, and the whole step
-# against a bare MatMult loop on the same matrix in the same process.
+# scatter-add) and `wait` (off-rank displacements).  Prints µs per step per
+# phase, interface / sweep, and the whole step against a bare MatMult loop on
+# the same matrix in the same process.
 # `--law stuck` gives the elastic interface without friction.
 #
 # Run: `mpirun -n 2 .venv/bin/python benchmarks/interface_cost.py [--preset reference] [--law stuck]`
@@ -19,7 +20,9 @@ import time
 
 from mpi4py import MPI
 
-from fricfem import config, run, solver
+from fricfem import load_scene
+from fricfem.model.build import build_model
+from fricfem.step import State, evolve, step
 
 logging.getLogger().setLevel(logging.WARNING)
 ap = argparse.ArgumentParser()
@@ -27,19 +30,20 @@ ap.add_argument("--preset", default="reference")
 ap.add_argument("--law", default="povirk_needleman")
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
-scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset='{a.preset}'", f"friction.law='{a.law}'",
+scene = load_scene("case1", ["loading.v_imp=10", f"mesh.preset='{a.preset}'", f"friction.law='{a.law}'",
                               "friction.params={}"])
-_, model = run.build_model(scene, comm)
-state = solver.State(model)
-for _ in solver.evolve(model, state, 20e-6):
+_, model = build_model(scene, comm)
+state = State(model)
+for _ in evolve(model, state, 20e-6):
     pass
-timers, n, nsub, npts = {}, 0, 0, 0
+state.seconds = dict.fromkeys(state.seconds, 0.0)  # the fused step's phase timers
+n, nsub, npts = 0, 0, 0
 while state.t < 32e-6:
-    solver.step_two_pass(model, state, timers=timers)
+    step(model, state)
     n += 1
     nsub += int(model.interface.points.nsub.sum())
     npts += len(model.interface.points.nsub)
-slowest = {k: comm.allreduce(v, op=MPI.MAX) for k, v in sorted(timers.items())}
+slowest = {k: comm.allreduce(v, op=MPI.MAX) for k, v in sorted(state.seconds.items())}
 # a bare K·u loop on the same matrix and vectors, for the ratio
 y = model.K.createVecRight()
 comm.Barrier()
@@ -50,7 +54,7 @@ comm.Barrier()
 bare = time.perf_counter() - t0
 res = {"ranks": comm.size, "preset": a.preset, "steps": n,
        **{f"{k}_us": 1e6 * v / n for k, v in slowest.items()},
-       "interface_over_bulk": slowest["interface"] / slowest["bulk"],
+       "interface_over_sweep": slowest["interface"] / slowest["sweep"],
        "step_us": 1e6 * sum(slowest.values()) / n, "bare_matmult_us": 1e6 * bare / n,
        "step_over_bare_matmult": sum(slowest.values()) / bare, "law": a.law, "dofs": 2 * model.V.dofmap.index_map.size_global,
        "mean_substeps_per_point_step": comm.allreduce(nsub, op=MPI.SUM) / comm.allreduce(npts, op=MPI.SUM)}

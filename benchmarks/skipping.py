@@ -1,7 +1,7 @@
 # # Skipping what a scene does not need
 #
 # Each line of the table is one saving, measured as the wall time of whole
-# runs (``fricfem.run.run_scene`` in this process, all ranks) with the saving
+# runs (``fricfem.runner.run_scene`` in this process, all ranks) with the saving
 # on and off, everything else equal; the median over ``--repeats`` runs of
 # each, the two variants interleaved so that both see the same load:
 #
@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config
-from fricfem.run import run_scene
+from fricfem import load_scene
+from fricfem.runner import run_scene
 
 HERE = Path(__file__).resolve().parent
 
@@ -64,7 +64,7 @@ def fields_every_us(t_end: float) -> list:
 
 
 def timed_run(comm, name: str, overrides: list, work: Path) -> dict:
-    scene = config.load(name, overrides)
+    scene = load_scene(name, overrides)
     s = run_scene(scene, work, comm, overwrite=True, quiet=True)
     return {"total_s": s["wall_s"]["total"], "loop_s": s["wall_s"]["time_loop"], "output_s": s["wall_s"]["output"],
             "steps": s["steps"], "ended_early": s["ended_early"]}
@@ -89,7 +89,7 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(comm.bcast(tmp if comm.rank == 0 else None))
         for saving, what, name, on, off in CASES:
-            t_end = config.load(name, common).t_end
+            t_end = load_scene(name, common).t_end
             if off is None:  # the fields line: the same scene with a snapshot per µs
                 off = fields_every_us(t_end)
             on_runs, off_runs = [], []

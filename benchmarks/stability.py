@@ -71,8 +71,10 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, run
-from fricfem.config import SceneError
+from fricfem import load_scene
+from fricfem import runner
+from fricfem.model.build import build_model
+from fricfem.scene import SceneError
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -289,25 +291,25 @@ def run_point(pt: dict, work: Path, t_end: float) -> dict:
     """Run one point on ``MPI.COMM_SELF``; its record (outcome, peak slip rate, steps, wall)."""
     key = key_of(pt)
     d = work / "points" / key
-    base = config.load(BASE)
+    base = load_scene(BASE)
     items = overrides(pt, t_end, base.Cn, base.Cs)
     rec = {"key": key, **{f: pt[f] for f in FACTORS}, "dt_factor": pt.get("dt_factor"),
            "parts": pt["parts"], "t_end_s": t_end, "peak_slip_rate_m_s": None, "steps": None,
            "t_stop_s": None, "dt_s": None, "dt_crit_s": None, "wall_s": None, "mode": None}
     t0 = time.perf_counter()
     try:
-        scene = config.load(BASE, items)
+        scene = load_scene(BASE, items)
     except SceneError as err:
         return rec | {"outcome": f"rejected: {err}", "kind": "rejected", "wall_s": time.perf_counter() - t0}
     d.mkdir(parents=True, exist_ok=True)
     (d / "record.json").unlink(missing_ok=True)
     try:
         if pt.get("dt_factor"):
-            _, model = run.build_model(scene, MPI.COMM_SELF)
+            _, model = build_model(scene, MPI.COMM_SELF)
             rec["dt_crit_s"] = model.dt_crit
-            scene = config.load(BASE, items + [f"time.dt={pt['dt_factor'] * model.dt_crit!r}", "time.allow_unstable_dt=true"])
+            scene = load_scene(BASE, items + [f"time.dt={pt['dt_factor'] * model.dt_crit!r}", "time.allow_unstable_dt=true"])
             del model
-        summary = run.run_scene(scene, d, MPI.COMM_SELF, overwrite=True, quiet=True)
+        summary = runner.run_scene(scene, d, MPI.COMM_SELF, overwrite=True, quiet=True)
         rec.update(steps=summary["steps"], t_stop_s=summary["t_s"], dt_s=summary["dt_s"],
                    dt_crit_s=summary["dt_crit_s"], mode=(summary.get("mode") or {}).get("label"),
                    run_wall_s=summary["wall_s"]["total"])
@@ -392,7 +394,7 @@ def per_level(records: list) -> dict:
 def law_scale(k: float) -> float:
     """m L0 C_s [Pa] with Table 1's m, L0 and C_s = k × the base scene's: above this
     |T_s| the slip rate of a sliding point runs away (see :func:`runaways`)."""
-    scene = config.load(BASE)
+    scene = load_scene(BASE)
     return scene.params["m"] * scene.params["L0"] * scene.Cs * k
 
 
@@ -628,7 +630,7 @@ def markdown(doc: dict) -> str:
         "near V_imp everywhere. The watchdog sees a runaway only when it crosses the bound before the end time.",
         "",
         "## Unstable explicit step (contrast)", "",
-        "`time.dt` = factor × dt_crit (`run.build_model(scene, comm)[1].dt_crit`); the reference is the same "
+        "`time.dt` = factor × dt_crit (`build_model(scene, comm)[1].dt_crit`); the reference is the same "
         "loading at dt_safety 0.9, γ 0.5.", "",
         "| loading | dt / dt_crit | outcome | stopped at [µs] | peak slip rate (ref) [m/s] | max T_n (ref) [MPa] "
         "| max open share (ref) | mode (ref) |",
@@ -818,7 +820,7 @@ def _write(args, gathered, reused, t_end, ranks, t0) -> dict:
     by_key = {r["key"]: r for r in records}
     design_recs = [r for r in records if not r.get("dt_factor")]
     unstable = [r for r in records if r.get("dt_factor")]
-    base = config.load(BASE)
+    base = load_scene(BASE)
     c_l = base.material.speeds()["c_l"]
     ok = [r for r in records if r["kind"] == "ok"]
     ran = [r for r in new.values() if r["kind"] != "rejected"]

@@ -2,7 +2,7 @@
 #
 # Case I's geometry struck at 10 m/s on the reference mesh, advanced to 20 µs
 # (the interface slides crack-like over ~20 mm), then the best of 5 × 100
-# calls of `solver.step` (fused: K·u, interface, update, struck edge) against
+# calls of `step` (fused: K·u, interface, update, struck edge) against
 # the best of 5 × 100 bare `K.mult` on the same matrix and vector.  The law is
 # an argument: `stuck` (elastic interface, no friction) or `povirk_needleman`.
 #
@@ -14,7 +14,10 @@ import time
 
 from mpi4py import MPI
 
-from fricfem import config, run, solver
+from fricfem import load_scene
+from fricfem.model.build import build_model
+from fricfem.step import State, step
+from fricfem.step import evolve
 
 logging.getLogger().setLevel(logging.WARNING)
 ap = argparse.ArgumentParser()
@@ -22,11 +25,11 @@ ap.add_argument("law", nargs="?", default="stuck", help="stuck or povirk_needlem
 ap.add_argument("--preset", default="reference")
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
-scene = config.load("case1", ["loading.v_imp=10", f"friction.law='{a.law}'", "friction.params={}",
+scene = load_scene("case1", ["loading.v_imp=10", f"friction.law='{a.law}'", "friction.params={}",
                               f"mesh.preset='{a.preset}'"])
-_, model = run.build_model(scene, comm)
-state = solver.State(model)
-for _ in solver.evolve(model, state, 20e-6):
+_, model = build_model(scene, comm)
+state = State(model)
+for _ in evolve(model, state, 20e-6):
     pass
 
 
@@ -43,7 +46,7 @@ def best_of(fn, repeats=5, calls=100):
     return best
 
 
-t_step = best_of(lambda: solver.step(model, state))
+t_step = best_of(lambda: step(model, state))
 t_mat = best_of(lambda: model.K.mult(state.u, state.f))
 if comm.rank == 0:
     print(f"{a.law}, {a.preset}, {comm.size} rank(s): step {1e6 * t_step:.0f} µs, bare MatMult "

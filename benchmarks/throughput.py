@@ -3,10 +3,7 @@
 # How long one explicit step takes, against the cost of the one operation it
 # cannot avoid: the stiffness product ``K u``.  For each mesh and rank count:
 #
-# * ``two_pass``: :func:`fricfem.solver.step_two_pass`, ``f = K u`` (PETSc),
-#   interface forces added into ``f``, then the update pass
-#   ``v −= dt M⁻¹ f; u += dt v`` and the struck edge;
-# * ``fused``: :func:`fricfem.solver.step` (:class:`fricfem.fused.FusedBulk`), one sweep over the rows of
+# * ``fused``: :func:`fricfem.step.step` (:class:`fricfem.step.fused.FusedBulk`), one sweep over the rows of
 #   ``K`` that updates ``v`` and ``u`` as each row's ``(K u)_i`` is done;
 # * ``matmult_aij``: a bare PETSc ``K.mult(u, f)`` (AIJ, I-nodes off: the
 #   matrix the solver assembles); ``matmult_sell``: the same in SELL storage;
@@ -46,7 +43,9 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from fricfem import config, run, solver
+from fricfem import load_scene
+from fricfem.model.build import build_model
+from fricfem.step import State, step
 
 HERE = Path(__file__).resolve().parent
 TARGET_RATIO = 1.15  # step / MatMult (issue "Fast and accurate")
@@ -66,7 +65,7 @@ class Snapshot:
 
     def state(self):
         """A new state equal to the snapshot (the interface points are reset too)."""
-        st = solver.State(self.model)
+        st = State(self.model)
         st.u.array[:] = self.u
         st.v.array[:] = self.v
         st.t, st.n, st.work_ext = self.t, self.n, self.work
@@ -96,17 +95,16 @@ PHASES = {"onset": 5e-6, "sliding": 36e-6}
 
 
 def measure(preset: str, comm, steps: int, repeats: int, t_snap: float) -> dict:
-    scene = config.load("case1", ["loading.v_imp=10", f"mesh.preset={preset}"])
-    _, model = run.build_model(scene, comm)
+    scene = load_scene("case1", ["loading.v_imp=10", f"mesh.preset={preset}"])
+    _, model = build_model(scene, comm)
     dofs = model.K.getSize()[0]
-    fused = model.fused
     # warm up (JIT, and into the phase to time), then snapshot
-    st = solver.State(model)
+    st = State(model)
     while st.t < t_snap:
-        solver.step(model, st)
+        step(model, st)
     sliding = int(comm.allreduce(int(np.count_nonzero(model.interface.points.slip_rate > 0.0))))
     snap = Snapshot(model, st)
-    solver.step(model, snap.state())  # compile the fused kernels
+    step(model, snap.state())  # compile the fused kernels
 
     K = model.K
     K_sell = K.convert(PETSc.Mat.Type.SELL, out=PETSc.Mat())
@@ -114,14 +112,11 @@ def measure(preset: str, comm, steps: int, repeats: int, t_snap: float) -> dict:
     x.array[:] = snap.u
     y = K.createVecRight()
 
-    us = {k: [] for k in ("two_pass", "fused", "matmult_aij", "matmult_sell", "interface", "sweep", "wait")}
+    us = {k: [] for k in ("fused", "matmult_aij", "matmult_sell", "interface", "sweep", "wait")}
     for _ in range(repeats):
         st = snap.state()
-        us["two_pass"].append(1e6 * timed(comm, lambda: solver.step_two_pass(model, st), steps))
-        st = snap.state()
-        fused.seconds = dict.fromkeys(fused.seconds, 0.0)
-        us["fused"].append(1e6 * timed(comm, lambda: solver.step(model, st), steps))
-        phase = {k: comm.allreduce(v / steps, op=MPI.MAX) for k, v in fused.seconds.items()}
+        us["fused"].append(1e6 * timed(comm, lambda: step(model, st), steps))
+        phase = {k: comm.allreduce(v / steps, op=MPI.MAX) for k, v in st.seconds.items()}
         us["interface"].append(1e6 * phase["interface"])
         us["sweep"].append(1e6 * phase["sweep"])
         us["wait"].append(1e6 * phase["wait"])
@@ -137,9 +132,8 @@ def measure(preset: str, comm, steps: int, repeats: int, t_snap: float) -> dict:
         "us_per_step_min": {k: float(np.min(v)) for k, v in us.items()},
         "us_all": {k: [float(t) for t in v] for k, v in us.items()},
         # each repeat's step against the MatMult timed right after it (same load), median over repeats
-        "ratio_two_pass": float(np.median(np.array(us["two_pass"]) / aij)),
         "ratio_fused": float(np.median(np.array(us["fused"]) / aij)),
-        "mdof_updates_per_s": {k: dofs / med[k] for k in ("two_pass", "fused", "matmult_aij")},
+        "mdof_updates_per_s": {k: dofs / med[k] for k in ("fused", "matmult_aij")},
     }
     K_sell.destroy()
     return out
@@ -155,30 +149,30 @@ def speedups(runs: dict) -> dict:
         mesh_name, ranks, phase = key.split("/")
         r2 = runs.get(f"{mesh_name}/2/{phase}")
         if ranks == "1" and r2 is not None:
-            sp = {k: r1["us_per_step"][k] / r2["us_per_step"][k] for k in ("two_pass", "fused", "matmult_aij")}
+            sp = {k: r1["us_per_step"][k] / r2["us_per_step"][k] for k in ("fused", "matmult_aij")}
             sp["fused_from_min"] = r1["us_per_step_min"]["fused"] / r2["us_per_step_min"]["fused"]
             out[f"{mesh_name}/{phase}"] = sp
     return out
 
 
 def table(runs: dict, speed: dict) -> str:
-    head = (f"{'mesh':>10} {'ranks':>5} {'phase':>8} {'slide':>5} {'dofs':>8} | {'two-pass':>9} {'fused':>8} {'AIJ':>8} {'SELL':>8} | "
-            f"{'iface':>7} {'sweep':>7} {'wait':>6} | {'2p/AIJ':>6} {'fu/AIJ':>6} | {'Mdof/s':>7}")
+    head = (f"{'mesh':>10} {'ranks':>5} {'phase':>8} {'slide':>5} {'dofs':>8} | {'fused':>8} {'AIJ':>8} {'SELL':>8} | "
+            f"{'iface':>7} {'sweep':>7} {'wait':>6} | {'fu/AIJ':>6} | {'Mdof/s':>7}")
     lines = [head, "-" * len(head)]
     for r in runs.values():
         t = r["us_per_step"]
         lines.append(
             f"{r['mesh']:>10} {r['ranks']:>5} {r['phase']:>8} {r['sliding_points_at_snapshot']:5d} "
-            f"{r['dofs']:>8} | {t['two_pass']:9.1f} {t['fused']:8.1f} "
+            f"{r['dofs']:>8} | {t['fused']:8.1f} "
             f"{t['matmult_aij']:8.1f} {t['matmult_sell']:8.1f} | {t['interface']:7.1f} {t['sweep']:7.1f} "
-            f"{t['wait']:6.1f} | {r['ratio_two_pass']:6.2f} {r['ratio_fused']:6.2f} | "
+            f"{t['wait']:6.1f} | {r['ratio_fused']:6.2f} | "
             f"{r['mdof_updates_per_s']['fused']:7.0f}")
     lines.append("µs per step, median of the repeats; iface, sweep, wait: the phases of the fused step "
                  "(slowest rank)")
     lines.append(f"target: fused / AIJ <= {TARGET_RATIO}; slide: interface points sliding at the snapshot "
                  f"(phases: {', '.join(f'{k} from {1e6 * v:g} µs' for k, v in PHASES.items())})")
     for mesh_name, s in speed.items():
-        lines.append(f"1 -> 2 ranks, {mesh_name}: fused {s['fused']:.2f}x, two-pass {s['two_pass']:.2f}x, "
+        lines.append(f"1 -> 2 ranks, {mesh_name}: fused {s['fused']:.2f}x, "
                      f"MatMult {s['matmult_aij']:.2f}x (target {TARGET_SPEEDUP} on the fine mesh)")
     return "\n".join(lines)
 
@@ -190,7 +184,7 @@ def figure(runs: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     keys = list(runs)
-    series = [("two_pass", "step, two-pass"), ("fused", "step, fused"), ("matmult_aij", "MatMult AIJ"),
+    series = [("fused", "step, fused"), ("matmult_aij", "MatMult AIJ"),
               ("matmult_sell", "MatMult SELL"), ("interface", "interface kernel")]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [3, 2]})
     w = 0.8 / len(series)
@@ -203,8 +197,7 @@ def figure(runs: dict, path: Path) -> None:
     ax.set_yscale("log")
     ax.legend(fontsize=8)
     ax.set_title("time per step")
-    bx.bar(xs - 0.2, [runs[k]["ratio_two_pass"] for k in keys], 0.4, label="two-pass")
-    bx.bar(xs + 0.2, [runs[k]["ratio_fused"] for k in keys], 0.4, label="fused")
+    bx.bar(xs, [runs[k]["ratio_fused"] for k in keys], 0.6, label="fused step")
     bx.axhline(TARGET_RATIO, color="k", ls="--", lw=1, label=f"target {TARGET_RATIO}")
     bx.axhline(1.0, color="grey", lw=0.5)
     bx.set_xticks(xs, [f"{runs[k]['mesh']}\n{runs[k]['ranks']}\n{runs[k]['phase']}" for k in keys], fontsize=7)

@@ -60,10 +60,11 @@ from typing import NamedTuple
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, run
+from fricfem import batch, load_scene
+from fricfem.analysis.convergence import (RUPTURE_THRESHOLD, front_at, order, record, rupture_speeds,  # noqa: F401
+                                         rupture_time_error, rupture_times, station_l2, tip_error)
 
 HERE = Path(__file__).resolve().parent
-RUPTURE_THRESHOLD = 1e-3  # m/s: a station has ruptured once Δu̇_slip exceeds this
 SAFETY = (0.9, 0.45)  # fractions of the stable step
 
 # Stations of the paper cases [m] (the paper's 16.1 mm among them): inside the
@@ -114,124 +115,21 @@ def problems(mode: str) -> dict:
 
 # ## Running and reading one run
 #
-# Every run writes its directory; rank 0 keeps what the metrics need: the
+# Every run writes its directory (the batch runner reuses a finished one); rank
+# 0 keeps what the metrics need (fricfem.analysis.convergence.record): the
 # station histories, the tip track and the timings.
 
 
-def _same_input(path: Path, scene) -> bool:
-    try:
-        old = json.loads((path / "summary.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return bool(old.get("complete")) and old.get("input") == json.loads(json.dumps(scene.raw))
-
-
 def run_one(scene, d: Path, comm, reuse: bool) -> dict:
-    """Run (or, with ``reuse``, keep) ``scene`` in ``d``; returns the record on rank 0, None elsewhere."""
-    keep = comm.bcast(_same_input(d, scene) if (reuse and comm.rank == 0) else False, root=0)
-    if keep:
-        summ = json.loads((d / "summary.json").read_text()) if comm.rank == 0 else None
-    else:
-        summ = run.run_scene(scene, d, comm, overwrite=True, quiet=True)
-    if comm.rank != 0:
-        return None
-    import h5py
-
-    stations = {}
-    with h5py.File(d / "interface.h5", "r") as f:
-        for name, g in f["stations"].items():
-            n = int(g.attrs["n"])
-            stations[name] = {"x1": float(g.attrs["x1"]), "t": g["time"][:n], "v": g["slip_rate"][:n]}
-    tip = summ.get("tip") or {"time_s": [], "x1_m": []}
-    return {
-        "dofs": summ["dofs"], "dt_s": summ["dt_s"], "steps": summ["steps"], "complete": summ["complete"],
-        "h_m": scene.mesh.dx, "wall_loop_s": summ["wall_s"]["time_loop"], "wall_total_s": summ["wall_s"]["total"],
-        "us_per_step": summ["us_per_step"], "t_end_s": scene.t_end, "speeds": summ["speeds"], "reused": keep,
-        "stations": stations, "tip_t": np.asarray(tip["time_s"]), "tip_x": np.asarray(tip["x1_m"]),
-    }
+    """Run (or, with ``reuse``, keep) ``scene`` in ``d`` on every rank; its record on rank 0, None elsewhere."""
+    job = batch.Job(d.name, d, scene)
+    keep = comm.bcast(reuse and batch.status(job) == "done" if comm.rank == 0 else None, root=0)
+    if not keep:
+        batch.run_jobs([job], comm, ranks_per_job=comm.size)
+    return {**record(d, scene), "reused": keep} if comm.rank == 0 else None
 
 
 # ## Metrics
-
-
-def rupture_times(rec: dict, threshold: float = RUPTURE_THRESHOLD) -> dict:
-    """Station name -> first time Δu̇_slip > ``threshold`` [s] (NaN if never)."""
-    out = {}
-    for name, s in rec["stations"].items():
-        k = np.flatnonzero(s["v"] > threshold)
-        out[name] = float(s["t"][k[0]]) if len(k) else float("nan")
-    return out
-
-
-def station_l2(rec: dict, ref: dict) -> float:
-    """Relative L2 distance of the station slip-rate histories (all stations together)."""
-    num = den = 0.0
-    for name, r in ref["stations"].items():
-        s = rec["stations"][name]
-        v = np.interp(r["t"], s["t"], s["v"], left=0.0)
-        w = np.gradient(r["t"]) if len(r["t"]) > 1 else np.ones(1)
-        num += float(np.sum(w * (v - r["v"]) ** 2))
-        den += float(np.sum(w * r["v"] ** 2))
-    return float(np.sqrt(num / den)) if den > 0 else float("nan")
-
-
-def front_at(rec: dict, t: np.ndarray) -> np.ndarray:
-    """The run's front of sliding at times ``t``: the furthest the leading tip has
-    reached by t (its first position before it starts sliding; NaN if it never slides)."""
-    if len(rec["tip_t"]) == 0:
-        return np.full(len(t), np.nan)
-    front = np.maximum.accumulate(rec["tip_x"])
-    k = np.searchsorted(rec["tip_t"], t, side="right") - 1
-    return front[np.maximum(k, 0)]
-
-
-def tip_error(rec: dict, ref: dict) -> float:
-    """max |x_f − x_f,ref| [m] from the reference's initiation to the end."""
-    if len(ref["tip_t"]) == 0:
-        return 0.0 if len(rec["tip_t"]) == 0 else float("nan")
-    t = ref["tip_t"]
-    return float(np.nanmax(np.abs(front_at(rec, t) - front_at(ref, t))))
-
-
-def rupture_time_error(rec: dict, ref: dict) -> float:
-    """max over stations |t_r − t_r,ref| [s]; a station broken in only one of them counts as
-    the time from its rupture to the end."""
-    a, b = rupture_times(rec), rupture_times(ref)
-    errs = []
-    for name, tb in b.items():
-        ta = a[name]
-        if np.isnan(ta) and np.isnan(tb):
-            continue
-        if np.isnan(ta) or np.isnan(tb):
-            errs.append(ref["t_end_s"] - (tb if np.isnan(ta) else ta))
-        else:
-            errs.append(abs(ta - tb))
-    return float(max(errs)) if errs else 0.0
-
-
-def rupture_speeds(rec: dict, x_centre: float, r_min: float = 8e-3, r_max: float = 24e-3) -> dict:
-    """Front speeds [m/s] both ways from the patch centre: least-squares slope of the
-    station distance against the rupture time over stations r_min <= |x − x_c| <= r_max."""
-    tr = rupture_times(rec)
-    out = {}
-    for side, sgn in (("left", -1.0), ("right", 1.0)):
-        pts = [(s["x1"], tr[n]) for n, s in rec["stations"].items()
-               if r_min - 1e-4 <= sgn * (s["x1"] - x_centre) <= r_max + 1e-4 and np.isfinite(tr[n])]
-        if len(pts) >= 2:
-            x, t = np.array(pts).T
-            out[side] = float(abs(np.polyfit(t, x, 1)[0]))
-        else:
-            out[side] = float("nan")
-    return out
-
-
-def order(h, e) -> float:
-    """Slope of log e against log h (NaN with fewer than two positive errors)."""
-    h, e = np.asarray(h, float), np.asarray(e, float)
-    ok = (e > 0) & np.isfinite(e)
-    if ok.sum() < 2 or len(set(h[ok])) < 2:
-        return float("nan")
-    return float(np.polyfit(np.log(h[ok]), np.log(e[ok]), 1)[0])
 
 
 METRICS = {"station_L2": "station slip-rate L2 (rel.)", "tip_mm": "front of sliding max |Δx| [mm]",
@@ -264,7 +162,7 @@ def analyse(label: str, prob: Problem, recs: dict) -> dict:
     out = {"scene": prob.scene, "overrides": list(prob.overrides),
            "reference": f"{finest}, dt = {min(SAFETY)} × stable", "rows": rows, "orders": orders}
     if label.startswith("rupture"):
-        scene = config.load(prob.scene)
+        scene = load_scene(prob.scene)
         patch = scene.tau0_patches[0]
         xc = 0.5 * (patch["x1_min"] + patch["x1_max"])
         sp = ref["speeds"]
@@ -360,7 +258,7 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         recs = {}
         for lev in prob.levels:
             for s in SAFETY:
-                scene = config.load(prob.scene, list(prob.overrides) + list(lev.overrides)
+                scene = load_scene(prob.scene, list(prob.overrides) + list(lev.overrides)
                                     + [f"time.dt_safety={s}", "output.fields=[]"])
                 d = args.work / mode / label / f"{lev.name}_s{s}"
                 recs[(lev.name, s)] = run_one(scene, d, comm, args.reuse)

@@ -40,7 +40,8 @@ import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 from fricfem.friction import defaults, get_law, pack  # noqa: E402
-from fricfem.friction import povirk_needleman as pn  # noqa: E402
+from fricfem.friction import povirk_needleman as pn
+from fricfem.friction import povirk_needleman_rate_tangent as rt  # noqa: E402
 from fricfem.friction.driver import (  # noqa: E402
     drive_jump_rate,
     drive_slip_rate,
@@ -209,7 +210,7 @@ for ax, dt in zip(axes, (50e-9, 10e-9)):
     ax.plot(ref.t * 1e6, ref.Ts / Tn_s, "k-", lw=1, label=f"reference, {dt_ref * 1e9:g} ns")
     ax.plot(ours.t * 1e6, ours.Ts / Tn_s, "o", ms=3, mfc="none", label="fricfem advance")
     for gamma, style in ((0.5, "-"), (1.0, "--")):
-        plain = stiffness_run(dt, pn.rate_tangent_advance, gamma)
+        plain = stiffness_run(dt, rt.rate_tangent_advance, gamma)
         bad = ~np.isfinite(plain.Ts) | (plain.state[:, 0] <= 0.0)
         key = f"plain_rate_tangent_gamma_{gamma:g}"
         if bad.any():

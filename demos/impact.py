@@ -34,7 +34,9 @@ from pathlib import Path
 from mpi4py import MPI
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-from fricfem import config, run  # noqa: E402
+from fricfem import load_scene
+from fricfem import runner
+from fricfem.plot import run as plot_run
 
 logging.getLogger().setLevel(logging.WARNING)
 parser = argparse.ArgumentParser(description="the paper's Case I with figures")
@@ -54,17 +56,19 @@ if args.also_v > 0:
     runs[f"{args.scene}_v{args.also_v:g}"] = list(args.set) + [f"loading.v_imp={args.also_v}"]
 report = {}
 for label, overrides in runs.items():
-    scene = config.load(args.scene, overrides)
+    scene = load_scene(args.scene, overrides)
     out = Path(args.out) / label
-    summary = run.run_scene(scene, out, comm, overwrite=True)
+    summary = runner.run_scene(scene, out, comm, overwrite=True)
 
     # ## Figures and a read-back of the fields
     # The fields are read back by VTK's XDMF reader in a separate process (one
     # without dolfinx, whose HDF5 library VTK's reader would otherwise pick up).
     if comm.rank == 0:
-        from fricfem import runplots
+        from fricfem import load_scene
+        from fricfem import runner
+        from fricfem.plot import run as plot_run
 
-        figures = runplots.plot_run(out)
+        figures = plot_run.plot_run(out)
         code = ("import json, sys, numpy as np, pyvista\n"
                 "r = pyvista.get_reader(sys.argv[1]); r.set_active_time_value(r.time_values[-1]); b = r.read()\n"
                 "s = b[b.keys().index('stress_difference')].cell_data['stress_difference']\n"

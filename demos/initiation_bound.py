@@ -20,7 +20,7 @@
 # Two things the paper leaves open enter the same bound, and are varied here
 # on the same τ:
 #
-# - **θ0(0)**, the friction parameter ``theta0_init`` (units L0/V1; SPEC's
+# - **θ0(0)**, the friction parameter ``theta0_init`` (units L0/V1; docs/model.md's
 #   L0/(10 V1) is 0.1): the factors and the initiation time the paper's own
 #   V_imp would give, for theta0_init = 0.1, 1, 10 and 100.  θ0 ages by B t
 #   = 4.6 µs per µs of stick, so θ0(0) = 0.1 L0/V1 = 77 ns is forgotten
@@ -47,7 +47,12 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, friction, run, solver
+from fricfem import friction
+from fricfem import load_scene
+from fricfem import runner
+from fricfem.model.build import build_model
+from fricfem.step import State
+from fricfem.step import evolve
 from fricfem.friction import povirk_needleman as pn
 
 logging.getLogger().setLevel(logging.WARNING)
@@ -66,13 +71,13 @@ CASES = {"case1": (6e6, 2.0, 16e-6, 1.0), "case2": (30e6, 2.0, 28e-6, 1.0),
 # ## τ(t) = max over the interface of |T_s| per m/s of impact velocity
 tau = {}
 for k in sorted({c[3] for c in CASES.values()}):
-    scene = config.load("case1", ["loading.v_imp=1.0", "friction.law='stuck'", "friction.params={}",
+    scene = load_scene("case1", ["loading.v_imp=1.0", "friction.law='stuck'", "friction.params={}",
                                   f"interface.Cn={3e11 * k}", f"interface.Cs={1e11 * k}",
                                   f"mesh.preset='{a.preset}'"])
-    _, model = run.build_model(scene, comm)
-    state = solver.State(model)
+    _, model = build_model(scene, comm)
+    state = State(model)
     rows = []
-    for st, _ in solver.evolve(model, state, 45e-6):
+    for st, _ in evolve(model, state, 45e-6):
         if st.n % 5 == 0:
             rows.append((st.t, comm.allreduce(float(np.abs(model.interface.points.Ts).max(initial=0.0)),
                                               op=MPI.MAX)))
@@ -81,7 +86,7 @@ for k in sorted({c[3] for c in CASES.values()}):
 # ## Strength during stick and the required impact velocity
 # Each case's own friction parameters (Case V: p = 0.5, V1 = 1 m/s).
 law = friction.get_law("povirk_needleman")
-PARAMS = {name: friction.pack(law, config.load(name).params) for name in CASES}
+PARAMS = {name: friction.pack(law, load_scene(name).params) for name in CASES}
 THETA0_INIT = (0.1, 1.0, 10.0, 100.0)  # units L0/V1
 
 
@@ -158,36 +163,34 @@ def run_once(sc, d: Path) -> dict | None:
         old = json.loads((d / "summary.json").read_text())
         same = bool(old.get("complete")) and old.get("input") == json.loads(json.dumps(sc.raw))
     if not comm.bcast(same, root=0):
-        run.run_scene(sc, d, comm, overwrite=True, quiet=True)
+        runner.run_scene(sc, d, comm, overwrite=True, quiet=True)
     return json.loads((d / "summary.json").read_text()) if comm.rank == 0 else None
 
 
 if not a.no_runs:
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import reproduction as rp  # loading_front, load_run
+    from fricfem import open_run
+    from fricfem.analysis import measures
 
     runs = {}
     for name in ("case3", "case4"):
         for th in THETA0_INIT:
-            sc = config.load(name, [f"friction.params.theta0_init={th!r}", "output.fields=[]",
+            sc = load_scene(name, [f"friction.params.theta0_init={th!r}", "output.fields=[]",
                                     f"mesh.preset='{a.preset}'"])
             d = a.work / f"{name}_theta0_{th:g}"
             summ = run_once(sc, d)
             if comm.rank == 0:
-                r = rp.load_run(d)
+                r = open_run(d)
                 ini = summ.get("initiation")
                 runs.setdefault(name, {})[f"{th:g}"] = {
                     "initiation_us": ini["time_s"] * 1e6 if ini else None,
-                    "mode": (summ.get("mode") or {}).get("label"), "peak_slip_rate_m_s": float(r.rate.max()),
+                    "mode": (summ.get("mode") or {}).get("label"), "peak_slip_rate_m_s": float(r.slip_rate.max()),
                     "watchdog": summ.get("watchdog")}
     result["theta0_runs"] = runs
     d = a.work / "symmetric_27us"
-    run_once(config.load("symmetric", ["time.end=27e-6", "output.fields=[]", f"mesh.preset='{a.preset}'"]), d)
+    run_once(load_scene("symmetric", ["time.end=27e-6", "output.fields=[]", f"mesh.preset='{a.preset}'"]), d)
     if comm.rank == 0:
-        r = rp.load_run(d)
-        fronts = {oname: rp.loading_front(r, 16e-6 + off, 10e6) for oname, off in
+        r = open_run(d)
+        fronts = {oname: measures.loading_front(r, 16e-6 + off, 10e6) for oname, off in
                   {**origins, "smallest spread": result["offset_scan"]["best"]["offset_us"] * 1e-6}.items()}
         result["symmetric_front_at_paper_16us_mm"] = {"paper": 34.0, **fronts}
 

@@ -26,9 +26,13 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, friction, run, solver
+from fricfem import friction
+from fricfem import load_scene
+from fricfem.model.build import build_model
+from fricfem.step import State
+from fricfem.step import evolve
 from fricfem.friction import povirk_needleman as pn
-from fricfem.run import run_scene
+from fricfem.runner import run_scene
 
 logging.getLogger().setLevel(logging.WARNING)
 ap = argparse.ArgumentParser()
@@ -47,14 +51,14 @@ KINDS = {"velocity": [], "traction": [], "projectile": ["loading.impedance=4.6e7
 response = {}
 for kind, extra in KINDS.items():
     for k in sorted({c[3] for c in CASES.values()}):
-        scene = config.load("case1", ["loading.v_imp=1.0", "friction.law='stuck'", "friction.params={}",
+        scene = load_scene("case1", ["loading.v_imp=1.0", "friction.law='stuck'", "friction.params={}",
                                       f"interface.Cn={3e11 * k}", f"interface.Cs={1e11 * k}",
                                       f"mesh.preset='{a.preset}'", f"loading.kind='{kind}'", *extra])
-        _, model = run.build_model(scene, comm)
+        _, model = build_model(scene, comm)
         d = model.impact.dofs
-        state = solver.State(model)
+        state = State(model)
         rows = []
-        for st, _ in solver.evolve(model, state, 45e-6):
+        for st, _ in evolve(model, state, 45e-6):
             if st.n % 5 == 0:
                 ts = comm.allreduce(float(np.abs(model.interface.points.Ts).max(initial=0.0)), op=MPI.MAX)
                 vsum = comm.allreduce(np.array([st.v.array_r[d].sum(), float(len(d))]))
@@ -63,7 +67,7 @@ for kind, extra in KINDS.items():
 
 # ## Required impact velocity per case and form
 law = friction.get_law("povirk_needleman")
-PARAMS = {name: friction.pack(law, config.load(name).params) for name in CASES}
+PARAMS = {name: friction.pack(law, load_scene(name).params) for name in CASES}
 
 
 def strength(name, t):
@@ -88,7 +92,7 @@ for kind in KINDS:
 result["runs"] = {}
 for kind, extra in KINDS.items():
     for name in ("case1", "case2", "case5"):
-        scene = config.load(name, [f"mesh.preset='{a.preset}'", f"loading.kind='{kind}'", "output.fields=[]",
+        scene = load_scene(name, [f"mesh.preset='{a.preset}'", f"loading.kind='{kind}'", "output.fields=[]",
                                    *extra])
         out = a.work / f"{name}_{kind}"
         s = run_scene(scene, out, comm, overwrite=True, quiet=True)

@@ -29,7 +29,7 @@
 #   run, divided by the fine mesh's peak there (as ``benchmarks/dt_convergence.py``);
 # - ``station_peak_m_s``: the station's peak slip rate;
 # - ``tip_max_diff_mm``: max |x_f − x_f,fine| of the front of sliding
-#   x_f(t) (running maximum of the leading tip, ``work_precision.front_at``);
+#   x_f(t) (running maximum of the leading tip, ``fricfem.analysis.convergence.front_at``);
 # - ``mean_v_tip_m_s``: the time average of the V_tip(t) curve
 #   (``summary.json``'s 5-point progressive fit) from 2 µs after initiation to
 #   the end — the "mean value of the V_tip curve" the paper compares;
@@ -47,18 +47,16 @@
 import argparse
 import json
 import logging
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 from mpi4py import MPI
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-import work_precision as wp  # noqa: E402  (run_one, front_at)
 
-from fricfem import config, friction  # noqa: E402
-from fricfem.friction import povirk_needleman as pn  # noqa: E402
+from fricfem import batch, friction, load_scene
+from fricfem.analysis.convergence import front_at, record
+from fricfem.friction import povirk_needleman as pn
 
 logging.getLogger().setLevel(logging.WARNING)
 
@@ -81,9 +79,18 @@ comm = MPI.COMM_WORLD
 
 # ## Runs
 #
-# Each run uses all ranks; ``wp.run_one`` keeps the station histories and
+# Each run uses all ranks (the batch runner reuses a finished one); its record keeps the station histories and
 # the tip track on rank 0.  The interface snapshots (every 0.2 µs) give the
 # traction-to-strength ratio.
+
+
+def run_one(scene, d: Path, comm) -> dict | None:
+    """Run ``scene`` in ``d`` on every rank unless a finished run of it is there; its record on rank 0."""
+    job = batch.Job(d.name, d, scene)
+    reused = comm.bcast(batch.status(job) == "done" if comm.rank == 0 else None, root=0)
+    if not reused:
+        batch.run_jobs([job], comm, ranks_per_job=comm.size)
+    return {**record(d, scene), "reused": reused} if comm.rank == 0 else None
 
 
 def strength_ratio(d: Path, law, params) -> tuple:
@@ -117,9 +124,9 @@ for label in a.cases:
         over = list(extra) + [f"mesh.preset='{preset}'", "output.fields=[]"]
         if a.t_end is not None:
             over.append(f"time.end={a.t_end!r}")
-        scene = config.load(base, over)
+        scene = load_scene(base, over)
         d = a.work / label / preset
-        rec = wp.run_one(scene, d, comm, reuse=True)
+        rec = run_one(scene, d, comm)
         if comm.rank == 0:
             law = friction.get_law(scene.law)
             params = friction.pack(law, scene.params)
@@ -150,7 +157,7 @@ def compare(rec, ref) -> dict:
     diff = np.interp(t_ref, t, v, left=0.0) - v_ref
     rms = float(np.sqrt(np.mean(diff**2)))
     if len(ref["tip_t"]) and len(rec["tip_t"]):
-        tip = float(np.nanmax(np.abs(wp.front_at(rec, ref["tip_t"]) - wp.front_at(ref, ref["tip_t"])))) * 1e3
+        tip = float(np.nanmax(np.abs(front_at(rec, ref["tip_t"]) - front_at(ref, ref["tip_t"])))) * 1e3
     else:
         tip = float("nan")
     return {"station_rms_over_peak": rms / peak if peak > 0 else float("nan"),

@@ -11,15 +11,13 @@
 import argparse
 import itertools
 import json
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
-sys.path.insert(0, str(Path(__file__).parent))
-import reproduction as rp  # noqa: E402
+import reproduction as rp  # the statements and readings (demos/reproduction.py)
 
-from fricfem import config  # noqa: E402
+from fricfem import load_scene
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--directions", default="push,pull")
@@ -29,7 +27,7 @@ ap.add_argument("--preset", default="reference")
 ap.add_argument("--out", default="runs/readings")
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
-speeds = config.load("case1").material.speeds()
+speeds = load_scene("case1").material.speeds()
 ranking = []
 for d, v, k in itertools.product(a.directions.split(","), map(float, a.v_scales.split(",")),
                                  map(float, a.stiffness_scales.split(","))):

@@ -21,11 +21,11 @@ import math
 from pathlib import Path
 from typing import NamedTuple
 
-import h5py
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import config, diagnostics, run
+from fricfem import batch, load_scene, open_run
+from fricfem.analysis.measures import first_slip, loading_front, mode, pulse_train, tip_and_behind
 
 logging.getLogger().setLevel(logging.WARNING)
 
@@ -41,38 +41,6 @@ DEMOS = {"symmetric": "fig07_symmetric.py", "case1": "fig08_09_case1.py", "case2
          "all": "fig06_tip_speed.py", "lineA": "fig20_lineA.py", "lineB": "fig21_lineB.py"}
 
 
-class Run(NamedTuple):
-    """A finished run's interface history (all SI)."""
-
-    summary: dict
-    t: np.ndarray
-    x1: np.ndarray
-    rate: np.ndarray  # slip rate [n_t, n_p]
-    ts: np.ndarray  # |T_s|
-    tn: np.ndarray
-    station: dict  # name -> {quantity: array}
-
-    def at(self, t):
-        return int(np.argmin(np.abs(self.t - t)))
-
-    def regions(self, k, floor=0.05):
-        return diagnostics.slip_regions(self.x1, self.rate[k], min_points=3, floor=floor)
-
-    def tip(self, t):
-        k = self.at(t)
-        s = self.rate[k] > 0
-        return float(self.x1[s].max()) if s.any() else float("nan")
-
-
-def load_run(d: Path) -> Run:
-    s = json.loads((d / "summary.json").read_text())
-    with h5py.File(d / "interface.h5", "r") as f:
-        n = f.attrs["n_time"]
-        st = {name: {q: g[q][: g.attrs["n"]] for q in g} for name, g in f["stations"].items()}
-        return Run(s, f["time"][:n], f["x1"][:], f["slip_rate"][:n], np.abs(f["shear_traction"][:n]),
-                   f["normal_traction"][:n], st)
-
-
 def overrides_for(reading) -> list:
     return [f"loading.direction='{reading.direction}'",
             f"interface.Cn={3e11 * reading.stiffness_scale}", f"interface.Cs={1e11 * reading.stiffness_scale}",
@@ -80,24 +48,19 @@ def overrides_for(reading) -> list:
 
 
 def run_all(reading, out: Path, comm) -> dict:
-    """Run every scene under ``reading`` (resumable, one run per rank at a time)."""
+    """Run every scene under ``reading``: resumable, one run per rank at a time
+    (the batch runner, :mod:`fricfem.batch`)."""
     jobs = []
     for name in SCENES:
-        base = config.load(name)
+        base = load_scene(name)
         ov = overrides_for(reading) + [f"loading.v_imp={base.pulse.v_imp * reading.v_scale}"]
         if name == "case4":  # Case IV: the paper's C_n, C_s ÷ 10, relative to the reading's
             ov += [f"interface.Cn={3e10 * reading.stiffness_scale}", f"interface.Cs={1e10 * reading.stiffness_scale}"]
-        jobs.append((name, config.load(name, ov)))  # validate everything first
-    for i, (name, scene) in enumerate(jobs):
-        if i % comm.size != comm.rank:
-            continue
-        d = out / name
-        done = d / "summary.json"
-        if done.exists() and json.loads(done.read_text()).get("complete"):
-            continue
-        run.run_scene(scene, d, MPI.COMM_SELF, overwrite=True, quiet=True)
+        scene = load_scene(name, ov)  # validate everything first
+        jobs.append(batch.Job(name, out / name, scene, batch.expected_cost(scene)))
+    batch.run_jobs([j for j in jobs if batch.status(j) != "done"], comm)
     comm.Barrier()
-    return {name: out / name for name, _ in jobs}
+    return {j.key: j.dir for j in jobs}
 
 
 # ## Statements
@@ -111,52 +74,8 @@ def close(value, target, rel=None, abs_=None):
     return abs(value - target) <= tol
 
 
-def first_slip(r: Run):
-    ini = r.summary.get("initiation")
-    return (None, None) if not ini else (ini["time_s"] * 1e6, ini["x1_m"] * 1e3)
-
-
-def mode(r: Run):
-    return (r.summary.get("mode") or {}).get("label", "none")
-
-
-def loading_front(r: Run, t, sigma0):
-    """Furthest x1 where T_n differs from Σ0 by > 0.01 % (the longitudinal front along the interface)."""
-    k = r.at(t)
-    moved = np.abs(r.tn[k] - sigma0) > 1e-4 * sigma0
-    return float(r.x1[moved].max()) * 1e3 if moved.any() else float("nan")
-
-
-def tip_and_behind(r: Run, t, quantity):
-    """Value of ``quantity`` at the sliding tip (max over the last 2 mm of sliding) and its
-    mean over the sliding region from 5 mm behind the tip back to 5 mm from the edge."""
-    k = r.at(t)
-    s = r.rate[k] > 0
-    if not s.any():
-        return float("nan"), float("nan")
-    xt = r.x1[s].max()
-    q = quantity[k]
-    near = s & (r.x1 > xt - 2e-3)
-    behind = s & (r.x1 < xt - 5e-3) & (r.x1 > 5e-3)
-    return float(q[near].max()), (float(q[behind].mean()) if behind.any() else float("nan"))
-
-
-def pulse_train(r: Run, t: float, x_max: float = 60e-3) -> dict:
-    """Width, stick length and spacing [mm] of the pulses behind the leading one at ``t``:
-    regions within the uniform fine mesh (x_end < ``x_max``); width the median over
-    them but the last (the leading pulse), spacing the median distance between
-    successive region starts."""
-    regs = r.regions(r.at(t))
-    behind = [g for g in regs if g.x_end < x_max]
-    widths = [g.width * 1e3 for g in behind[:-1]] if len(behind) > 2 else []
-    starts = [g.x_start * 1e3 for g in behind]
-    spacing = float(np.median(np.diff(starts))) if len(starts) > 2 else float("nan")
-    width = float(np.median(widths)) if widths else float("nan")
-    return {"n_regions": len(regs), "width_mm": width, "spacing_mm": spacing, "stick_mm": spacing - width}
-
-
 def statements(runs: dict, speeds) -> list:
-    R = {k: load_run(v) for k, v in runs.items()}
+    R = {k: open_run(v) for k, v in runs.items()}
     out = []
 
     def add(group, text, value, ok):
@@ -164,7 +83,7 @@ def statements(runs: dict, speeds) -> list:
                     "demo": f"demos/paper/{DEMOS[group]}"})
 
     sy = R["symmetric"]
-    add("symmetric", "no sliding", f"max slip rate {sy.rate.max():.3g} m/s", sy.rate.max() == 0)
+    add("symmetric", "no sliding", f"max slip rate {sy.slip_rate.max():.3g} m/s", sy.slip_rate.max() == 0)
     lf = loading_front(sy, 16e-6, 10e6)
     add("symmetric", "loading front 34 mm in at 16 µs (±3 mm)", f"{lf:.1f} mm", close(lf, 34, abs_=3))
 
@@ -174,18 +93,18 @@ def statements(runs: dict, speeds) -> list:
     add("case1", "sliding starts at the impact edge (x1 < 2 mm) at 16 µs (±2 µs)",
         "no sliding" if t0 is None else f"{t0:.1f} µs at {x0:.1f} mm",
         t0 is not None and close(t0, 16, abs_=2) and x0 < 2)
-    tip_v, behind_v = tip_and_behind(c1, 32e-6, c1.rate)
+    tip_v, behind_v = tip_and_behind(c1, 32e-6, c1.slip_rate)
     add("case1", "peak Δu̇_slip ≈ 7 m/s at the tip, ≈ 5 m/s behind, at 32 µs (±25 %)",
         f"{tip_v:.2f} / {behind_v:.2f} m/s", close(tip_v, 7, 0.25) and close(behind_v, 5, 0.25))
     lf = loading_front(c1, 32e-6, 6e6)
     add("case1", "loading front at 71 mm at 32 µs (±3 mm)", f"{lf:.1f} mm", close(lf, 71, abs_=3))
-    a, b = tip_and_behind(c1, 32e-6, c1.ts)
+    a, b = tip_and_behind(c1, 32e-6, np.abs(c1.shear_traction))
     add("case1", "T_s ≈ 3.9 MPa at the tip, 3.6 MPa behind (±0.2 MPa)", f"{a / 1e6:.2f} / {b / 1e6:.2f} MPa",
         close(a / 1e6, 3.9, abs_=0.2) and close(b / 1e6, 3.6, abs_=0.2))
-    a, b = tip_and_behind(c1, 32e-6, c1.tn)
+    a, b = tip_and_behind(c1, 32e-6, c1.normal_traction)
     add("case1", "T_n 6.39 MPa at the tip, 6.14 MPa behind (±0.15 MPa)", f"{a / 1e6:.2f} / {b / 1e6:.2f} MPa",
         close(a / 1e6, 6.39, abs_=0.15) and close(b / 1e6, 6.14, abs_=0.15))
-    mu = np.divide(c1.ts, c1.tn, out=np.zeros_like(c1.ts), where=c1.tn > 0)
+    mu = np.divide(np.abs(c1.shear_traction), c1.normal_traction, out=np.zeros_like(np.abs(c1.shear_traction)), where=c1.normal_traction > 0)
     a, b = tip_and_behind(c1, 32e-6, mu)
     add("case1", "μ_app 0.609 at the tip, 0.585 behind (±0.01)", f"{a:.3f} / {b:.3f}",
         close(a, 0.609, abs_=0.01) and close(b, 0.585, abs_=0.01))
@@ -199,7 +118,7 @@ def statements(runs: dict, speeds) -> list:
         t0 is not None and close(t0, 28, abs_=2))
     n32, n34 = len(c2.regions(c2.at(32e-6))), len(c2.regions(c2.at(34e-6)))
     add("case2", "2 pulses at 32 µs, 3 at 34 µs", f"{n32} / {n34}", (n32, n34) == (2, 3))
-    pk = float(c2.rate.max())
+    pk = float(c2.slip_rate.max())
     add("case2", "peak slip rate ≈ 700 m/s (±25 %)", f"{pk:.0f} m/s", close(pk, 700, 0.25))
     tip = c2.tip(32e-6) * 1e3
     add("case2", "leading pulse near 22 mm at 32 µs (±4 mm)", f"{tip:.1f} mm", close(tip, 22, abs_=4))
@@ -211,7 +130,7 @@ def statements(runs: dict, speeds) -> list:
     width, spacing = train["width_mm"], train["spacing_mm"]
     add("case3", "pulse width 1.33 mm, spacing 2.21 mm at 32 µs (±25 %)", f"{width:.2f} / {spacing:.2f} mm",
         close(width, 1.33, 0.25) and close(spacing, 2.21, 0.25))
-    pk = float(c3.rate[k].max())
+    pk = float(c3.slip_rate[k].max())
     add("case3", "peak ≈ 120 m/s at 32 µs (±25 %)", f"{pk:.0f} m/s", close(pk, 120, 0.25))
     tip = c3.tip(32e-6) * 1e3
     add("case3", "leading front near 55 mm at 32 µs (±4 mm)", f"{tip:.1f} mm", close(tip, 55, abs_=4))
@@ -241,7 +160,7 @@ def statements(runs: dict, speeds) -> list:
     t0, _ = first_slip(c5)
     add("case5", "starts at 31 µs (±2 µs) as a pulse", "no sliding" if t0 is None else f"{t0:.1f} µs",
         t0 is not None and close(t0, 31, abs_=2))
-    pk = float(c5.rate[c5.at(44e-6)].max()) if len(c5.t) else float("nan")
+    pk = float(c5.slip_rate[c5.at(44e-6)].max()) if len(c5.t) else float("nan")
     add("case5", "peak slip rate ≈ 392 m/s at 44 µs (±25 %)", f"{pk:.0f} m/s", close(pk, 392, 0.25))
     add("case5", "a pulse followed by a crack (mixed)", mode(c5), mode(c5) == "mixed")
 
@@ -301,7 +220,7 @@ def main(argv=None):
     out = Path(a.out or f"runs/repro/{a.reading}_v{a.v_scale:g}_k{a.stiffness_scale:g}_{a.preset}")
     runs = run_all(reading, out, comm)
     if comm.rank == 0:
-        rows = statements(runs, config.load("case1").material.speeds())
+        rows = statements(runs, load_scene("case1").material.speeds())
         (out / "statements.json").write_text(json.dumps({"reading": reading._asdict(), "rows": rows}, indent=2))
         md = markdown(rows, reading)
         (out / "statements.md").write_text(md)

@@ -3,7 +3,50 @@
 Explicit finite elements (dolfinx/PETSc) for the bulk, one numba kernel for the
 rate- and state-dependent frictional interface, after Coker, Lykotrafitis,
 Needleman & Rosakis, *Frictional sliding modes along an interface between
-identical elastic plates subject to shear impact loading*.
+identical elastic plates subject to shear impact loading*, J. Mech. Phys.
+Solids 53 (2005) 884–922.
+
+The Python API (docs/api.md):
+
+    scene = fricfem.load_scene("case3", ["loading.v_imp=40"])
+    summary = fricfem.run(scene, "runs/c3v40")
+
+Importing fricfem loads nothing heavy; each function imports what it needs.
 """
 
 __version__ = "0.1.0"
+
+
+def load_scene(ref, overrides=()):
+    """A validated scene (:class:`fricfem.scene.Scene`) from a shipped name or a
+    .toml path, with ``--set``-style overrides (``"section.key=value"``).
+    Raises :class:`fricfem.scene.SceneError` naming the key on bad input."""
+    from .scene import load
+
+    return load(ref, overrides)
+
+
+def run(scene, out=None, *, comm=None, overwrite=False, quiet=True, on_step=None) -> dict:
+    """Run a scene (a :class:`~fricfem.scene.Scene`, or a name/path to load)
+    into the run directory ``out`` (default ``runs/<name>``); returns the
+    summary (every rank).  Collective over ``comm`` (default MPI.COMM_WORLD)."""
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    from .runner import run_scene
+    from .scene import Scene, load
+
+    if not isinstance(scene, Scene):
+        scene = load(scene)
+    out = Path(out) if out else Path("runs") / scene.name
+    return run_scene(scene, out, comm or MPI.COMM_WORLD, overwrite=overwrite, quiet=quiet, on_step=on_step)
+
+
+def open_run(rundir):
+    """A run directory's results as arrays with units (:class:`fricfem.output.rundir.Run`):
+    ``t``, ``x1``, every interface quantity (``slip_rate``, ``shear_traction``, ...),
+    ``stations``, ``energy``, ``summary``, ``units``."""
+    from .output.rundir import open_run as _open
+
+    return _open(rundir)

@@ -8,29 +8,32 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 
 
 def _mesh(args) -> int:
-    import dataclasses
-
     from mpi4py import MPI
 
-    from . import mesh
+    from . import scene as scene_mod
+    from .model import mesh
 
-    spec = mesh.preset(args.preset)
-    overrides = {}
-    for item in args.set or []:
-        key, _, value = item.partition("=")
-        fields = {f.name for f in dataclasses.fields(mesh.MeshSpec)}
-        if key not in fields:
-            raise ValueError(f"mesh.{key}: unknown mesh parameter; allowed: {', '.join(sorted(fields))}")
-        try:
-            overrides[key] = float(value)
-        except ValueError:
-            raise ValueError(f"mesh.{key} = {value!r}: expected a number in metres") from None
-    spec = dataclasses.replace(spec, **overrides)
-    spec.check()
+    if args.scene:  # the mesh of a scene, its [mesh] table and --set mesh.* applied
+        raw = scene_mod.apply_overrides(scene_mod.resolve(args.scene),
+                                        [f"mesh.{item}" for item in args.set or []])
+        if args.preset:
+            raw.setdefault("mesh", {})["preset"] = args.preset
+        spec = scene_mod.validate(raw).mesh
+    else:
+        table = {"preset": args.preset or "reference"}
+        for item in args.set or []:
+            keys, value = scene_mod.parse_override(f"mesh.{item}")
+            table[keys[-1]] = value
+        spec = scene_mod.validate({"mesh": table}).mesh  # every key checked by the schema
+    if args.write and MPI.COMM_WORLD.rank == 0:
+        folder = os.path.dirname(os.path.abspath(args.write))
+        if not os.path.isdir(folder):
+            raise scene_mod.SceneError(f"--write {args.write!r}: folder {folder!r} does not exist")
     pm = mesh.build(spec, MPI.COMM_WORLD, msh_file=args.write)
     info = mesh.info(pm)
     if MPI.COMM_WORLD.rank == 0:
@@ -42,13 +45,13 @@ def _mesh(args) -> int:
 
 
 def _scenes(args) -> int:
-    from . import config
+    from . import scene as scene_mod
 
     if args.keys:
-        print(config.describe_keys())
+        print(scene_mod.describe_keys())
         return 0
-    for name, path in config.shipped().items():
-        scene = config.load(name)
+    for name in scene_mod.shipped():
+        scene = scene_mod.load(name)
         print(f"{name:12s} {scene.description}")
     return 0
 
@@ -56,7 +59,7 @@ def _scenes(args) -> int:
 def _run(args) -> int:
     from mpi4py import MPI
 
-    from . import run
+    from . import runner as run
 
     summary = run.resolve_and_run(args.scene, args.set, args.out, args.overwrite, args.quiet)
     if MPI.COMM_WORLD.rank == 0:
@@ -77,9 +80,9 @@ def _plot(args) -> int:
 
     if MPI.COMM_WORLD.rank != 0:
         return 0
-    from . import runplots
+    from .plot import run as plot_run
 
-    return runplots.main([args.rundir] + (["--times", args.times] if args.times else [])
+    return plot_run.main([args.rundir] + (["--times", args.times] if args.times else [])
                          + (["--out", args.out] if args.out else []))
 
 
@@ -95,7 +98,9 @@ def main(argv=None) -> int:
         prog="fricfem", description="dynamic frictional sliding between two elastic plates struck at one edge")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("mesh", help="build a two-plate mesh; print its sizes as JSON")
-    p.add_argument("--preset", default="reference", help="coarse, reference, half or fine")
+    p.add_argument("scene", nargs="?", help="a scene (shipped name or .toml): its mesh")
+    p.add_argument("--preset", help="a mesh of meshes/ (coarse, reference, half, fine, rupture_band) or a "
+                                    ".toml mesh file (default: the scene's, else reference)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a mesh parameter in metres (e.g. --set fine_x1=0.08)")
     p.add_argument("--info", action="store_true", help="print JSON with cells, dofs, interface_facets, min_altitude_m")
@@ -116,7 +121,7 @@ def main(argv=None) -> int:
     p = sub.add_parser("plot", help="figures of a run directory")
     p.add_argument("rundir")
     p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
-    p.add_argument("--out", help="figure directory (default RUNDIR/figures)")
+    p.add_argument("--out", help="figure directory (default RUNDIR/plots)")
     p.set_defaults(func=_plot)
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "sweep":  # the sweep parses its own arguments

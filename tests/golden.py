@@ -123,18 +123,19 @@ def run_case(name: str, out_root: Path, comm) -> Path | None:
     that ran it, None on the others (collective on ``comm``)."""
     from mpi4py import MPI
 
-    from fricfem import config, run
+    from fricfem import scene as scene_mod
+    from fricfem import runner
 
     scene_name, overrides, ranks = CASES[name]
     out = Path(out_root) / name
-    scene = config.load(scene_name, overrides)
+    scene = scene_mod.load(scene_name, overrides)
     if ranks == "world":
-        run.run_scene(scene, out, comm, overwrite=True, quiet=True)
+        runner.run_scene(scene, out, comm, overwrite=True, quiet=True)
         result = out
     else:
         result = None
         if comm.rank == 0:
-            run.run_scene(scene, out, MPI.COMM_SELF, overwrite=True, quiet=True)
+            runner.run_scene(scene, out, MPI.COMM_SELF, overwrite=True, quiet=True)
             result = out
         comm.Barrier()
     return result

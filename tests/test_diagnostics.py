@@ -13,8 +13,8 @@ import json
 import numpy as np
 import pytest
 
-from fricfem import diagnostics as dg
-from fricfem.material import Material
+from fricfem import analysis as dg
+from fricfem.model.material import Material
 
 SPEEDS = Material().speeds()
 C_L = SPEEDS["c_l"]

@@ -2,19 +2,24 @@
 
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from fricfem import friction, mesh, solver
-from fricfem.loading import ImpactPulse
-from fricfem.material import Material
-from fricfem.probe import NodeProbe
+from fricfem import friction
+from fricfem import load_scene
+from fricfem.model import grid, mesh
+from fricfem.scene import SceneError
+from fricfem.step import State
+from fricfem.step import evolve
+from fricfem.model import build as build_mod
+from fricfem.model.loading import ImpactPulse
+from fricfem.model.material import Material
+from fricfem.output.probe import NodeProbe
 
 STUCK = friction.get_law("stuck")
-CN, CS = 3e11, 1e11  # Pa/m (SPEC §3: 0.3 and 0.1 MPa/µm)
+CN, CS = 3e11, 1e11  # Pa/m (docs/model.md: 0.3 and 0.1 MPa/µm)
 
 _MESHES: dict = {}
 
@@ -28,14 +33,14 @@ def plates(name: str, comm):
 
 
 def stuck_model(pm, v_imp=5.0, sigma0=10e6, impact=("impact_lower",), t_rise=10e-6, dt=None):
-    return solver.build(pm, Material(), ImpactPulse(v_imp=v_imp, t_rise=t_rise), STUCK, np.zeros(0),
+    return build_mod.build(pm, Material(), ImpactPulse(v_imp=v_imp, t_rise=t_rise), STUCK, np.zeros(0),
                         sigma0, CN, CS, impact_tags=impact, dt=dt)
 
 
 def run(model, t_end, energy_every=0, each=None):
-    state = solver.State(model)
+    state = State(model)
     last = None
-    for st, e in solver.evolve(model, state, t_end, energy_every):
+    for st, e in evolve(model, state, t_end, energy_every):
         if e:
             last = e
         if each is not None:
@@ -166,11 +171,11 @@ def test_mesh_presets_and_tags(comm):
     perimeter = 2 * 2 * (spec.length + spec.height)
     assert L["outer"] == pytest.approx(perimeter - 2 * spec.length - 2 * 0.025, rel=1e-12)
     # the fine region is uniform 0.30 × 0.20 mm and the other presets have their sizes
-    x = mesh.axis_nodes(spec.length, (0.0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
+    x = grid.axis_nodes(spec.length, (0.0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
     assert np.allclose(np.diff(x[x <= 0.060 + 1e-12]), 0.3e-3)
     sizes = {"coarse": 1200, "reference": 17784, "half": 33696, "fine": 90396}
     for name, quads in sizes.items():
-        assert mesh.preset(name).estimate_quads() == quads
+        assert grid.estimate_quads(mesh.preset(name)) == quads
 
 
 @pytest.mark.parametrize(
@@ -186,6 +191,6 @@ def test_mesh_presets_and_tags(comm):
     ],
 )
 def test_bad_mesh_spec_is_named(change, message):
-    spec = dataclasses.replace(mesh.MeshSpec(), **change)
-    with pytest.raises(ValueError, match=message.replace(".", r"\.")):
-        spec.check()
+    """Each bad mesh value is refused by the scene's validation, naming the key."""
+    with pytest.raises(SceneError, match=message.replace(".", r"\.")):
+        load_scene("case1", [f"mesh.{k}={v!r}" for k, v in change.items()])

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import importlib
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-PAPER = Path(__file__).resolve().parents[1] / "demos" / "paper"
-sys.path.insert(0, str(PAPER))
+from fricfem import load_scene
+
+PAPER = Path(__file__).resolve().parents[1] / "demos" / "paper"  # on pytest's pythonpath (pyproject.toml)
 
 SMOKE = ["--preset", "coarse", "--t-end", "20e-6", "--quiet"]
 
@@ -46,7 +46,7 @@ def test_scene_options():
     args = common.options("x", "", ["--preset", "coarse", "--direction", "pull", "--v-scale", "2.5",
                                     "--set", "loading.sigma0=7e6", "--t-end", "33e-6"])
     sc = common.scene("case5", args)
-    assert sc.mesh == common.config.load("case1", ["mesh.preset='coarse'"]).mesh
+    assert sc.mesh == load_scene("case1", ["mesh.preset='coarse'"]).mesh
     assert sc.pulse.direction == "pull" and sc.pulse.v_imp == pytest.approx(5.0)
     assert sc.sigma0 == 7e6 and sc.t_end == pytest.approx(33e-6)
     assert sc.output["fields"] == [32e-6]  # 38 and 44.6 µs lie past the end

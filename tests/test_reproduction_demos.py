@@ -1,4 +1,4 @@
-"""The REPRODUCTION.md demos ``demos/mesh_convergence.py`` and ``demos/rate_tangent.py``
+"""The REPRODUCTION.md demos ``demos/mesh_convergence.py`` and ``demos/paper/rate_tangent.py``
 run end to end in a smoke setting (coarse meshes, cut short), on every rank
 as under ``mpirun``; rank 0 writes the JSON and the figures."""
 
@@ -37,7 +37,7 @@ def test_mesh_convergence_smoke(tmp_dir_shared, comm):
 def test_rate_tangent_smoke(tmp_dir_shared, comm):
     """Case III on the coarse mesh: the converged law slides, the plain update is stopped by the watchdog."""
     out = tmp_dir_shared / "out"
-    run_demo("rate_tangent.py", ["--scenes", "case3", "--v-scales", "1", "--preset", "coarse", "--t-end", "12e-6",
+    run_demo("paper/rate_tangent.py", ["--scenes", "case3", "--v-scales", "1", "--preset", "coarse", "--t-end", "12e-6",
                                  "--work", str(tmp_dir_shared / "runs"), "--out", str(out)])
     comm.Barrier()
     runs = {r["law"]: r for r in json.loads((out / "rate_tangent.json").read_text())["runs"]}

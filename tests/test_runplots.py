@@ -22,7 +22,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from fricfem import runplots
+from fricfem.output import rundir as rd
+from fricfem.output import quantities
+from fricfem.plot import isochromatics as plot_iso
+from fricfem.plot import run as plot_run
 
 SIGMA0, V_IMP = 6e6, 2.0  # Pa, m/s
 C_L, C_S, C_R = 2187.0, 1255.0, 1155.0  # m/s
@@ -104,7 +107,8 @@ def write_summary(path: Path) -> None:
     heal_t = np.linspace(T_HEAL + 0.4e-6, 40e-6, 30)
     summary = {
         "tip": {"time_s": t.tolist(), "x1_m": (V_RUPT * (t - T_START)).tolist(),
-                "v_tip_m_s": (V_RUPT + 150 * rng.standard_normal(len(t))).tolist()},
+                "v_tip_time_s": t[2:-2].tolist(),  # the 5-point fit's window centres
+                "v_tip_m_s": (V_RUPT + 150 * rng.standard_normal(len(t) - 4)).tolist()},
         "fronts": [
             {"kind": "rupture", "t": t.tolist(), "x": (V_RUPT * (t - T_START)).tolist(),
              "speed": [V_RUPT] * len(t)},
@@ -158,11 +162,11 @@ def make_run(rundir: Path, n_time: int = 100, n_alloc: int | None = None, fields
              summary: bool = True) -> Path:
     """A synthetic run directory in the layout of ``fricfem run``."""
     rundir.mkdir(parents=True, exist_ok=True)
-    write_interface(rundir / runplots.INTERFACE_FILE, n_time, n_alloc)
+    write_interface(rundir / quantities.INTERFACE_FILE, n_time, n_alloc)
     if summary:
-        write_summary(rundir / runplots.SUMMARY_FILE)
+        write_summary(rundir / quantities.SUMMARY_FILE)
     if fields:
-        write_fields(rundir / runplots.FIELDS_FILE)
+        write_fields(rundir / quantities.FIELDS_FILE)
     return rundir
 
 
@@ -177,18 +181,18 @@ def not_blank(path: Path) -> bool:
 def run_plots(tmp_path_factory):
     """(run directory, written PNGs) of the full synthetic run, drawn once per rank."""
     rundir = make_run(tmp_path_factory.mktemp(f"run_rank{MPI.COMM_WORLD.rank}") / "case1")
-    return rundir, runplots.plot_run(rundir)
+    return rundir, plot_run.plot_run(rundir)
 
 
 def test_every_figure_is_drawn(run_plots):
     rundir, paths = run_plots
-    with runplots.open_interface(rundir) as itf:
-        rows = itf.nearest(runplots.default_times(itf))
-        tags = {runplots.time_tag(t) for t in itf.time[rows]}
+    with rd.open_interface(rundir) as itf:
+        rows = itf.nearest(rd.default_times(itf))
+        tags = {rd.time_tag(t) for t in itf.time[rows]}
     assert len(tags) == 4
     expected = {f"interface_{tag}.png" for tag in tags}
     expected |= {"tip_speed.png", "station_x16p1.png", "spacetime.png"}
-    expected |= {f"isochromatics_{runplots.time_tag(t)}.png" for t in FIELD_TIMES}
+    expected |= {f"isochromatics_{rd.time_tag(t)}.png" for t in FIELD_TIMES}
     names = {p.name for p in paths}
     assert names == expected
     for p in paths:
@@ -210,9 +214,9 @@ def test_isochromatics_show_fringes(run_plots):
 def test_sliding_sign_and_zones(run_plots):
     """T_s < 0 where it slides gives sign −1; the zones at 32 µs span heal…tip."""
     rundir, _ = run_plots
-    with runplots.open_interface(rundir) as itf:
-        assert runplots.sliding_sign(itf) == -1.0
-        zones = runplots.sliding_zones(itf, 32e-6)
+    with rd.open_interface(rundir) as itf:
+        assert rd.sliding_sign(itf) == -1.0
+        zones = plot_iso.sliding_zones(itf, 32e-6)
         row = int(itf.nearest([32e-6])[0])
     t = float(np.linspace(0.4e-6, 40e-6, 100)[row])
     assert len(zones) == 1
@@ -226,22 +230,23 @@ def test_half_written_run_plots_only_valid_rows(tmp_path, monkeypatch):
     rundir = make_run(tmp_path / f"killed{MPI.COMM_WORLD.rank}", n_time=60, n_alloc=150, fields=False,
                       summary=False)
     figures = {}
-    save = runplots._save
+    from fricfem.plot import common, interface, spacetime, station, tip
 
-    def keep(fig, path):
+    def keep(fig, path, **kw):
         figures[Path(path).name] = fig
-        return save(fig, path)
+        return common.save(fig, path, **kw)
 
-    monkeypatch.setattr(runplots, "_save", keep)
-    paths = runplots.plot_run(rundir, out=tmp_path / "out")
-    with h5py.File(rundir / runplots.INTERFACE_FILE) as f:
-        itf = runplots.Interface(f)
+    for mod in (interface, spacetime, station, tip):
+        monkeypatch.setattr(mod, "save", keep)
+    paths = plot_run.plot_run(rundir, out=tmp_path / "out")
+    with h5py.File(rundir / quantities.INTERFACE_FILE) as f:
+        itf = rd.InterfaceFile(f)
         t_valid = itf.time.copy()
         assert itf.n_time == 60 and itf.all("slip_rate").shape == (60, 1000)
         assert np.all(np.isfinite(itf.all("slip_rate"))) and itf.all("slip_rate").max() < 10.0
         station = itf.stations()["x16p1"]
         assert np.all(station.data["slip_rate"] < 10.0) and np.all(np.diff(station.time) > 0)
-    last = f"interface_{runplots.time_tag(t_valid[-1])}.png"
+    last = f"interface_{rd.time_tag(t_valid[-1])}.png"
     assert last in {p.name for p in paths}
     assert not any(n.startswith("isochromatics") for n in figures)  # no fields.xdmf: skipped
     # the space-time map stops at the last valid row and its colour scale at the valid peak
@@ -258,10 +263,10 @@ def test_half_written_run_plots_only_valid_rows(tmp_path, monkeypatch):
 def test_nothing_to_plot_yet(tmp_path, caplog):
     """n_time = 0 (a run that just started): no interface figures, a note, no crash."""
     rundir = make_run(tmp_path / "fresh", n_time=5, fields=False, summary=False)
-    with h5py.File(rundir / runplots.INTERFACE_FILE, "a") as f:
+    with h5py.File(rundir / quantities.INTERFACE_FILE, "a") as f:
         f.attrs["n_time"] = 0
-    with caplog.at_level("WARNING", logger="fricfem.runplots"):
-        paths = runplots.plot_run(rundir)
+    with caplog.at_level("WARNING", logger="fricfem.output"):
+        paths = plot_run.plot_run(rundir)
     assert paths == []
     assert "no valid rows" in caplog.text
 
@@ -272,22 +277,22 @@ def test_command_line(run_plots, tmp_path, monkeypatch, capsys):
     for key in ("OMPI_COMM_WORLD_RANK", "PMI_RANK"):
         monkeypatch.delenv(key, raising=False)
     out = tmp_path / "cli"
-    assert runplots.main([str(rundir), "--times", "22,32", "--out", str(out)]) == 0
+    assert plot_run.main([str(rundir), "--times", "22,32", "--out", str(out)]) == 0
     names = sorted(p.name for p in out.iterdir())
     assert "interface_22us.png" in names and "interface_32us.png" in names
     assert "isochromatics_22us.png" in names and "isochromatics_32us.png" in names
     assert len(capsys.readouterr().out.splitlines()) == len(names)
-    assert runplots.main([str(rundir), "--times", "22,x"]) == 2
-    assert runplots.main([str(tmp_path / "no-such-run")]) == 2
+    assert plot_run.main([str(rundir), "--times", "22,x"]) == 2
+    assert plot_run.main([str(tmp_path / "no-such-run")]) == 2
     monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
-    assert runplots.main([str(rundir), "--out", str(tmp_path / "rank1")]) == 0
+    assert plot_run.main([str(rundir), "--out", str(tmp_path / "rank1")]) == 0
     assert not (tmp_path / "rank1").exists()
 
 
 def test_module_entry_point():
-    """``python -m fricfem.runplots`` is a working command."""
+    """``python -m fricfem.plot.run`` is a working command."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMI_", "PMIX_"))}
-    res = subprocess.run([sys.executable, "-m", "fricfem.runplots", "--help"], capture_output=True,
+    res = subprocess.run([sys.executable, "-m", "fricfem.plot.run", "--help"], capture_output=True,
                          text=True, env=env, timeout=60)
     assert res.returncode == 0 and "RUNDIR" in res.stdout.upper()
 
@@ -298,7 +303,7 @@ def test_field_reader_with_dolfinx_loaded(run_plots):
     import dolfinx  # noqa: F401 (the situation of a demo that runs and then plots)
 
     rundir, _ = run_plots
-    reader = runplots.FieldReader(rundir / runplots.FIELDS_FILE)
+    reader = rd.FieldReader(rundir / quantities.FIELDS_FILE)
     assert np.allclose(reader.times, FIELD_TIMES)
     grid = reader.grid(1)
     assert grid.n_cells == 2 * 110 * 120

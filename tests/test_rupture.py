@@ -5,13 +5,13 @@ the barriers, and the work-precision benchmark in smoke mode.  Run under
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 
-from fricfem import config, run
+from fricfem import load_scene
+from fricfem import runner
 
 ROOT = Path(__file__).resolve().parents[1]
 THRESHOLD = 1e-3  # m/s: rupture time = first time the slip rate exceeds this
@@ -20,7 +20,7 @@ THRESHOLD = 1e-3  # m/s: rupture time = first time the slip rate exceeds this
 def test_rupture_scene_validates():
     """Plane strain, no impact, τ_d < τ0 < τ_s, an overstressed patch, locked
     barriers, a fine band along the whole interface, a resolved cohesive zone."""
-    scene = config.load("rupture_sw")
+    scene = load_scene("rupture_sw")
     mat, p, s0 = scene.material, scene.params, scene.sigma0
     assert mat.plane == "strain" and scene.pulse.v_imp == 0.0 and scene.law == "slip_weakening"
     assert p["mu_d"] * s0 < scene.tau0 < p["mu_s"] * s0
@@ -60,8 +60,8 @@ def _rupture_times(path: Path) -> dict:
 
 
 def test_coarse_rupture_spreads_both_ways_and_stops_at_the_barriers(comm, tmp_dir_shared):
-    scene = config.load("rupture_sw", ["mesh.dx=0.4e-3", "mesh.dy=0.4e-3", "time.end=30e-6"])
-    summary = run.run_scene(scene, tmp_dir_shared / "rupture", comm, overwrite=True, quiet=True)
+    scene = load_scene("rupture_sw", ["mesh.dx=0.4e-3", "mesh.dy=0.4e-3", "time.end=30e-6"])
+    summary = runner.run_scene(scene, tmp_dir_shared / "rupture", comm, overwrite=True, quiet=True)
     assert summary["complete"] and summary["watchdog"] is None
     data = _rupture_times(tmp_dir_shared / "rupture") if comm.rank == 0 else None
     stations, x1, slip = comm.bcast(data, root=0)
@@ -96,9 +96,8 @@ def test_coarse_rupture_spreads_both_ways_and_stops_at_the_barriers(comm, tmp_di
 
 def test_work_precision_benchmark_smoke(comm, tmp_dir_shared):
     """benchmarks/work_precision.py --smoke writes its JSON and figure, errors shrink under refinement."""
-    spec = importlib.util.spec_from_file_location("work_precision", ROOT / "benchmarks" / "work_precision.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    import work_precision as bench  # benchmarks/ is on pytest's pythonpath
+
     data = bench.main(["--smoke", "--out", str(tmp_dir_shared / "out"), "--work", str(tmp_dir_shared / "work")],
                       comm)
     rows = data["problems"]["rupture_sw"]["rows"]

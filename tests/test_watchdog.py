@@ -6,23 +6,25 @@ import json
 
 import pytest
 
-from fricfem import config, run
-from fricfem.config import SceneError
+from fricfem import load_scene
+from fricfem import runner
+from fricfem.model.build import build_model
+from fricfem.scene import SceneError
 
 
 def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
     """dt = 1.5 × the stable step diverges; the run stops with the watchdog's message,
     keeps its outputs, and says it is incomplete."""
-    probe = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=10"])
-    _, model = run.build_model(probe, comm)
+    probe = load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=10"])
+    _, model = build_model(probe, comm)
     dt = 1.5 * model.dt_crit
     args = ["mesh.preset='coarse'", "loading.v_imp=10", f"time.dt={dt!r}", "output.fields=[]",
             "output.energy_every=5"]
     with pytest.raises(SceneError, match="exceeds the stable step"):
-        run.run_scene(config.load("case1", args), tmp_dir_shared / "refused", comm, quiet=True)
-    scene = config.load("case1", args + ["time.allow_unstable_dt=true"])
+        runner.run_scene(load_scene("case1", args), tmp_dir_shared / "refused", comm, quiet=True)
+    scene = load_scene("case1", args + ["time.allow_unstable_dt=true"])
     out = tmp_dir_shared / "unstable"
-    summary = run.run_scene(scene, out, comm, quiet=True)
+    summary = runner.run_scene(scene, out, comm, quiet=True)
     assert not summary["complete"]
     msg = summary["watchdog"]
     assert msg.startswith("watchdog stopped the run at t = ")
@@ -36,16 +38,16 @@ def test_watchdog_stops_an_unstable_step(comm, tmp_dir_shared):
 def test_runaway_slip_rate_is_stopped_with_the_law_criterion(comm, tmp_dir_shared):
     """Σ0 = 30 MPa struck at 100 m/s: |T_s| passes m·L0·C_s = 10 MPa and the law's slip
     rate runs away; the watchdog stops the run at c_l and names the criterion."""
-    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=100", "loading.sigma0=30e6",
+    scene = load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=100", "loading.sigma0=30e6",
                                   "output.fields=[]"])
-    summary = run.run_scene(scene, tmp_dir_shared / "runaway", comm, quiet=True)
+    summary = runner.run_scene(scene, tmp_dir_shared / "runaway", comm, quiet=True)
     assert not summary["complete"]
     assert "slip rate beyond the bound" in summary["watchdog"]
     assert "m·L0·C_s = 10 MPa" in summary["watchdog"]
 
 
 def test_stable_run_is_not_stopped(comm, tmp_dir_shared):
-    scene = config.load("case1", ["mesh.preset='coarse'", "loading.v_imp=40", "loading.sigma0=24e6",
+    scene = load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=40", "loading.sigma0=24e6",
                                   "output.fields=[]", "time.end=20e-6"])
-    summary = run.run_scene(scene, tmp_dir_shared / "stable", comm, quiet=True)
+    summary = runner.run_scene(scene, tmp_dir_shared / "stable", comm, quiet=True)
     assert summary["complete"] and summary["watchdog"] is None

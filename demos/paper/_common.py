@@ -16,7 +16,7 @@ They share
   measure the same things the same way here;
 - :class:`Report`: the numbers, the paper's value next to fricfem's, written
   to ``numbers.json``;
-- the figures the runplots module has no kind for: slip-rate profiles at
+- the figures fricfem.plot has no kind for: slip-rate profiles at
   several times (Figs. 15, 17) and station histories of several runs (Figs. 20, 21).
 
 All inputs are SI; figures and reports use mm, µs, MPa, m/s.
@@ -29,7 +29,6 @@ import hashlib
 import json
 import math
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -38,10 +37,16 @@ from mpi4py import MPI
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # headless pyvista
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # demos/: reproduction.py
-import reproduction as rp  # noqa: E402
 
-from fricfem import config, diagnostics, run, runplots  # noqa: E402
+from fricfem import scene as scenes
+from fricfem import analysis, open_run
+from fricfem.analysis import measures
+from fricfem.output.rundir import Run
+from fricfem.output import rundir as rd
+from fricfem.plot import common as plot_common
+from fricfem import batch
+from fricfem.output import quantities
+from fricfem.plot import isochromatics as plot_iso
 
 OUTPUT = Path("demos/output/paper")
 
@@ -102,103 +107,87 @@ def reading_tag(args) -> str:
 # Scenes and runs
 
 
-def scene(name: str, args) -> config.Scene:
+def scene(name: str, args) -> scenes.Scene:
     """Shipped scene ``name`` under the options: ``--set`` first, then the preset,
     the direction, V_imp × ``--v-scale``, the paper's snapshot times and ``--t-end``.
     Validated here, before any heavy work."""
-    raw = config.apply_overrides(config.resolve(name), args.set)
+    raw = scenes.apply_overrides(scenes.resolve(name), args.set)
     raw.setdefault("mesh", {})["preset"] = args.preset
     loading = raw.setdefault("loading", {})
     loading["direction"] = args.direction
-    v_imp = loading.get("v_imp", config.SCHEMA["loading"]["v_imp"].default)
+    v_imp = loading.get("v_imp", scenes.SCHEMA["loading"]["v_imp"].default)
     loading["v_imp"] = v_imp * args.v_scale
     output = raw.setdefault("output", {})
     if name in SNAPSHOTS:
         output["fields"] = list(SNAPSHOTS[name])
     if args.t_end is not None:
-        t_end = min(args.t_end, raw.get("time", {}).get("end", config.SCHEMA["time"]["end"].default))
+        t_end = min(args.t_end, raw.get("time", {}).get("end", scenes.SCHEMA["time"]["end"].default))
         raw.setdefault("time", {})["end"] = t_end
         output["fields"] = [t for t in output.get("fields", []) if t <= t_end]
-    return config.validate(raw)
-
-
-def _finished(rundir: Path, sc: config.Scene) -> bool:
-    """A complete run of exactly this scene's input is in ``rundir``."""
-    path = rundir / "summary.json"
-    if not path.is_file():
-        return False
-    try:
-        summary = json.loads(path.read_text())
-    except ValueError:
-        return False
-    same = summary.get("input") == json.loads(json.dumps(sc.raw))
-    return bool(summary.get("complete")) and same
+    return scenes.validate(raw)
 
 
 def run_scenes(names, args, comm=MPI.COMM_WORLD) -> dict:
-    """Run the shipped scenes ``names`` on all ranks of ``comm``, one after the other.
+    """Run the shipped scenes ``names`` on all ranks of ``comm``, one after the other
+    (the batch runner, :mod:`fricfem.batch`).
 
-    Every scene is validated first.  A run directory holding a complete run of
-    the same input (summary.json ``input``) is reused unless ``--rerun``.
-    Returns {scene name: run directory}.
+    Every scene is validated first.  A run directory holding a finished run of
+    the same input is reused unless ``--rerun``.  Returns {scene name: run directory}.
     """
-    scenes = {name: scene(name, args) for name in names}
-    dirs = {}
-    for name, sc in scenes.items():
-        rundir = args.runs / reading_tag(args) / name
-        reuse = comm.bcast(_finished(rundir, sc) and not args.rerun if comm.rank == 0 else None, root=0)
-        if not reuse:
-            run.run_scene(sc, rundir, comm, overwrite=True, quiet=args.quiet)
-        elif comm.rank == 0 and not args.quiet:
-            print(f"{name}: reusing {rundir}", flush=True)
-        dirs[name] = rundir
-    return dirs
+    jobs = [batch.Job(name, args.runs / reading_tag(args) / name, scene(name, args)) for name in names]
+    todo = [j for j in jobs if args.rerun or batch.status(j) != "done"]
+    if comm.rank == 0 and not args.quiet:
+        for j in jobs:
+            if j not in todo:
+                print(f"{j.key}: reusing {j.dir}", flush=True)
+    batch.run_jobs(todo, comm, ranks_per_job=comm.size)
+    return {j.key: j.dir for j in jobs}
 
 
-def load(rundir: Path) -> rp.Run:
+def load(rundir: Path) -> Run:
     """A finished run as ``reproduction.Run`` (slip rate, |T_s|, T_n, stations, summary)."""
-    return rp.load_run(Path(rundir))
+    return open_run(Path(rundir))
 
 
 def profile(rundir: Path, name: str, t: float):
     """(x1 [m], values) of interface quantity ``name`` in the stored row nearest to ``t`` [s]."""
-    with runplots.open_interface(rundir) as itf:
+    with rd.open_interface(rundir) as itf:
         k = int(itf.nearest([t])[0])
         return itf.x1.copy(), itf.rows(name, [k])[0]
 
 
 def sign(rundir: Path) -> float:
     """Sliding direction sgn(Σ Δu̇_slip T_s): signed quantities times it are positive as in the paper."""
-    with runplots.open_interface(rundir) as itf:
-        return runplots.sliding_sign(itf)
+    with rd.open_interface(rundir) as itf:
+        return rd.sliding_sign(itf)
 
 
-def info(rundir: Path) -> runplots.RunInfo:
+def info(rundir: Path) -> rd.RunInfo:
     """Title data of a run (scene, Σ0, V_imp, wave speeds, mode)."""
-    with runplots.open_interface(rundir) as itf:
-        return runplots.run_info(rundir, interface=itf)
+    with rd.open_interface(rundir) as itf:
+        return rd.run_info(rundir, interface=itf)
 
 
 # ---------------------------------------------------------------------------
 # Measurements shared by several demos
 
 
-def leading_regions(r: rp.Run, t: float) -> list:
+def leading_regions(r: Run, t: float) -> list:
     """Slipping regions at ``t`` (``Run.regions``: ≥ 3 points, peak ≥ 0.05 m/s), leading one last."""
     return r.regions(r.at(t))
 
 
-def mu_app(r: rp.Run) -> np.ndarray:
+def mu_app(r: Run) -> np.ndarray:
     """|μ_app| = |T_s| / T_n [n_t, n_p] (0 where the interface is open)."""
-    return np.divide(r.ts, r.tn, out=np.zeros_like(r.ts), where=r.tn > 0)
+    return np.divide(np.abs(r.shear_traction), r.normal_traction, out=np.zeros_like(np.abs(r.shear_traction)), where=r.normal_traction > 0)
 
 
-def pulse_train(r: rp.Run, t: float, x_max: float = 60e-3) -> dict:
+def pulse_train(r: Run, t: float, x_max: float = 60e-3) -> dict:
     """Pulse geometry at ``t``, measured as in ``demos/reproduction.py``."""
-    return rp.pulse_train(r, t, x_max)
+    return measures.pulse_train(r, t, x_max)
 
 
-def v_tip(r: rp.Run, t: float, half_window: float = 1e-6) -> float:
+def v_tip(r: Run, t: float, half_window: float = 1e-6) -> float:
     """Mean V_tip [m/s] of summary.json (5-point progressive fit) over t ± ``half_window``."""
     tip = r.summary.get("tip") or {}
     tv = np.asarray(tip.get("v_tip_time_s") or [], dtype=float)
@@ -207,7 +196,7 @@ def v_tip(r: rp.Run, t: float, half_window: float = 1e-6) -> float:
     return float(np.mean(v[near])) if near.any() else math.nan
 
 
-def median_v_tip(r: rp.Run, after: float = 0.0, before: float = math.inf) -> float:
+def median_v_tip(r: Run, after: float = 0.0, before: float = math.inf) -> float:
     """Median V_tip [m/s] of summary.json over after ≤ t ≤ before [s]."""
     tip = r.summary.get("tip") or {}
     tv = np.asarray(tip.get("v_tip_time_s") or [], dtype=float)
@@ -216,7 +205,7 @@ def median_v_tip(r: rp.Run, after: float = 0.0, before: float = math.inf) -> flo
     return float(np.median(v[sel])) if sel.any() else math.nan
 
 
-def front_speed(r: rp.Run, t: float, x: float, edge: str = "leading", tol: float = 1e-3) -> float:
+def front_speed(r: Run, t: float, x: float, edge: str = "leading", tol: float = 1e-3) -> float:
     """Speed [m/s] of the tracked front (summary.json ``fronts``) of ``edge``
     ("leading": the front of a slipping region, "trailing": its back) that
     passes within ``tol`` [m] of x1 = ``x`` at the sample nearest ``t``: its
@@ -235,21 +224,21 @@ def front_speed(r: rp.Run, t: float, x: float, edge: str = "leading", tol: float
     return speed
 
 
-def station(r: rp.Run, sgn: float, name: str = "x16.1mm") -> dict:
+def station(r: Run, sgn: float, name: str = "x16.1mm") -> dict:
     """Station histories, SI, with signed quantities × ``sgn`` (positive as in the paper)."""
-    st = r.station.get(name, {})
+    st = r.stations.get(name, {})
     out = {q: np.asarray(v, dtype=float) for q, v in st.items()}
-    for q in runplots.SIGNED:
+    for q in plot_common.SIGNED:
         if q in out:
             out[q] = sgn * out[q]
     return out
 
 
-def station_measures(r: rp.Run, sgn: float, name: str = "x16.1mm") -> dict:
+def station_measures(r: Run, sgn: float, name: str = "x16.1mm") -> dict:
     """What Figs. 20 and 21 show at a station, in numbers.
 
     Sliding episodes are the runs of Δu̇_slip > 0 in time, found as
-    ``diagnostics.slip_regions`` finds them in space (≥ 3 samples, peak
+    ``analysis.slip_regions`` finds them in space (≥ 3 samples, peak
     ≥ 0.05 m/s): their count, median duration and the median period between
     their starts [µs], and duration / period (the pulse width-to-spacing
     ratio of a steadily travelling train).  "Late" is the last quarter of the
@@ -259,7 +248,7 @@ def station_measures(r: rp.Run, sgn: float, name: str = "x16.1mm") -> dict:
     if "time" not in st or len(st["time"]) < 8:
         return {}
     t = st["time"]
-    eps = diagnostics.slip_regions(t, st["slip_rate"], min_points=3, floor=0.05)
+    eps = analysis.slip_regions(t, st["slip_rate"], min_points=3, floor=0.05)
     starts = np.array([e.x_start for e in eps])
     period = float(np.median(np.diff(starts))) * 1e6 if len(eps) > 2 else math.nan
     duration = float(np.median([e.width for e in eps[1:]] or [math.nan])) * 1e6 if eps else math.nan
@@ -300,13 +289,13 @@ class Report:
         self.data = {"demo": args.name, "paper_figure": figure, "reading": reading(args), "runs": {},
                      "numbers": [], "figures": []}
 
-    def add_run(self, name: str, rundir: Path, r: rp.Run) -> None:
+    def add_run(self, name: str, rundir: Path, r: Run) -> None:
         s = r.summary
         inp = s.get("input", {})
         self.data["runs"][name] = {
             "dir": str(rundir), "complete": s.get("complete"), "t_end_us": 1e6 * s.get("t_s", 0.0),
             "sigma0_MPa": inp.get("loading", {}).get("sigma0", math.nan) / 1e6,
-            "v_imp_m_s": inp.get("loading", {}).get("v_imp"), "mode": rp.mode(r),
+            "v_imp_m_s": inp.get("loading", {}).get("v_imp"), "mode": measures.mode(r),
             "interface_points": s.get("interface_points"), "dofs": s.get("dofs"),
         }
 
@@ -354,39 +343,39 @@ def on_rank0(work, comm=MPI.COMM_WORLD):
 
 
 # ---------------------------------------------------------------------------
-# Figures the runplots module has no kind for
+# Figures fricfem.plot has no kind for
 
 
-def isochromatics(rundir: Path, times, out: Path, window=runplots.ISO_WINDOW) -> list:
+def isochromatics(rundir: Path, times, out: Path, window=plot_iso.ISO_WINDOW) -> list:
     """``isochromatics_<t>us.png`` at the written snapshots nearest to ``times`` [s]."""
-    fields = Path(rundir) / runplots.FIELDS_FILE
+    fields = Path(rundir) / quantities.FIELDS_FILE
     if not fields.is_file():
         return []
-    with runplots.open_interface(rundir) as itf:
-        return runplots.isochromatics(fields, out, times=times, info=runplots.run_info(rundir, interface=itf),
+    with rd.open_interface(rundir) as itf:
+        return plot_iso.isochromatics(fields, out, times=times, info=rd.run_info(rundir, interface=itf),
                                       itf=itf, window=window)
 
 
 def slip_rate_panels(rundir: Path, times, path: Path, *, traction_at=None, xlim=(0.0, 80e-3)) -> Path:
     """One panel of Δu̇_slip [m/s] against x1 per time (Figs. 15 and 17), with the
     integration points marked; ``traction_at`` adds the sign-corrected T_s at that time."""
-    with runplots.open_interface(rundir) as itf:
-        inf = runplots.run_info(rundir, interface=itf)
-        sgn = runplots.sliding_sign(itf)
+    with rd.open_interface(rundir) as itf:
+        inf = rd.run_info(rundir, interface=itf)
+        sgn = rd.sliding_sign(itf)
         rows = [int(itf.nearest([t])[0]) for t in times]
         x = itf.x1 * 1e3
-        fig = Figure(figsize=(7.0, 2.2 * len(rows) + 0.8), dpi=runplots.DPI)
+        fig = Figure(figsize=(7.0, 2.2 * len(rows) + 0.8), dpi=plot_common.DPI)
         axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)[:, 0]
         for k, (ax, row) in enumerate(zip(axes, rows)):
             rate = itf.rows("slip_rate", [row])[0]
             ax.plot(x, rate, "C0-", lw=1.0, marker="o", ms=2, mfc="none", mew=0.5)
-            ax.set_ylabel(runplots.label("slip_rate") + " [m/s]", color="C0")
+            ax.set_ylabel(quantities.label("slip_rate") + " [m/s]", color="C0")
             ax.text(0.99, 0.92, f"t = {itf.time[row] * 1e6:.3g} µs", transform=ax.transAxes, ha="right",
                     va="top", fontsize=9)
             if traction_at is not None and abs(itf.time[row] - traction_at) < 0.5e-6:
                 axr = ax.twinx()
                 axr.plot(x, sgn * itf.rows("shear_traction", [row])[0] / 1e6, "C3-", lw=1.0)
-                axr.set_ylabel(runplots.label("shear_traction", sgn) + " [MPa]", color="C3")
+                axr.set_ylabel(quantities.label("shear_traction", sgn) + " [MPa]", color="C3")
             ax.axhline(0.0, color="0.6", lw=0.5)
             ax.grid(alpha=0.25)
             ax.text(0.01, 0.92, f"({'abcdefgh'[k]})", transform=ax.transAxes, va="top", fontweight="bold")
@@ -395,7 +384,7 @@ def slip_rate_panels(rundir: Path, times, path: Path, *, traction_at=None, xlim=
         fig.suptitle(f"{inf.title()}\nsliding rate along the interface; mode: {inf.mode}", fontsize=10)
         fig.tight_layout()
         path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=runplots.DPI)
+        fig.savefig(path, dpi=plot_common.DPI)
     return path
 
 
@@ -407,7 +396,7 @@ def station_stack(runs: dict, path: Path, title: str) -> Path:
     A run whose peak Δu̇_slip is more than 3× every other's is drawn off
     scale in (b), as the paper does for Σ0 = 30 MPa; its legend gives the peak.
     """
-    fig = Figure(figsize=(7.0, 9.0), dpi=runplots.DPI)
+    fig = Figure(figsize=(7.0, 9.0), dpi=plot_common.DPI)
     axes = fig.subplots(4, 1, sharex=True)
     panels = (("jump_rate_s", 1.0, " [m/s]"), ("slip_rate", 1.0, " [m/s]"),
               ("shear_traction", 1e-6, " [MPa]"), ("mu_app", 1.0, ""))
@@ -424,7 +413,7 @@ def station_stack(runs: dict, path: Path, title: str) -> Path:
         peaks[text] = float(st["slip_rate"].max())
         for ax, (q, scale, _) in zip(axes, panels):
             ax.plot(t, st[q] * scale, color=f"C{k}", lw=0.9,
-                    label=f"{text} — {rp.mode(r)}" if q == "jump_rate_s" else None)
+                    label=f"{text} — {measures.mode(r)}" if q == "jump_rate_s" else None)
     if len(peaks) > 1:
         ordered = sorted(peaks.values())
         if ordered[-1] > 3 * ordered[-2] > 0:
@@ -433,7 +422,7 @@ def station_stack(runs: dict, path: Path, title: str) -> Path:
             axes[1].text(0.99, 0.95, f"{big}: peak {peaks[big]:.0f} m/s, off scale", transform=axes[1].transAxes,
                          ha="right", va="top", fontsize=8)
     for k, (ax, (q, _, unit)) in enumerate(zip(axes, panels)):
-        ax.set_ylabel(runplots.label(q, sgn) + unit)
+        ax.set_ylabel(quantities.label(q, sgn) + unit)
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.grid(alpha=0.25)
         ax.text(0.01, 0.95, f"({'abcd'[k]})", transform=ax.transAxes, va="top", fontweight="bold")
@@ -444,5 +433,5 @@ def station_stack(runs: dict, path: Path, title: str) -> Path:
                  fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=runplots.DPI)
+    fig.savefig(path, dpi=plot_common.DPI)
     return path

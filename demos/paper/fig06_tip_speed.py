@@ -26,7 +26,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import _common as common
-from _common import rp
+from fricfem.plot.common import DPI, SPEED_LABEL
+from fricfem.analysis import measures
 
 CASES = {"case1": "Case I", "case2": "Case II", "case3": "Case III", "case4": "Case IV", "case5": "Case V"}
 PAPER = {"case1": "> 2244", "case2": "≈ c_l", "case3": "≈ c_l", "case4": 2000.0, "case5": "≈ c_l"}
@@ -35,19 +36,19 @@ SPEEDS = {"c_R": (1155.0, ":"), "c_s": (1255.0, "-."), "sqrt2_c_s": (1775.0, "--
 
 def figure(loaded, speeds, path, reading):
     """(a) tip position, (b) V_tip against time, every case; c_R, c_s, √2 c_s, c_l marked."""
-    fig = Figure(figsize=(7.5, 7.0), dpi=common.runplots.DPI)
+    fig = Figure(figsize=(7.5, 7.0), dpi=DPI)
     ax_x, ax_v = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [1, 2]})
     top = 1.6 * speeds["c_l"]
     for k, (name, r) in enumerate(loaded.items()):
         tip = r.summary.get("tip") or {}
         t, x = np.asarray(tip.get("time_s") or []), np.asarray(tip.get("x1_m") or [])
         tv, v = np.asarray(tip.get("v_tip_time_s") or []), np.asarray(tip.get("v_tip_m_s") or [])
-        label = f"{CASES[name]} ({rp.mode(r)})"
+        label = f"{CASES[name]} ({measures.mode(r)})"
         ax_x.plot(t * 1e6, x * 1e3, color=f"C{k}", lw=1.0, label=label)
         ax_v.plot(tv * 1e6, np.clip(v, 0.0, top), color=f"C{k}", lw=0.9, marker="o", ms=2)
     for key, (_, style) in SPEEDS.items():
         ax_v.axhline(speeds[key], color="0.3", ls=style, lw=0.9)
-        ax_v.text(1.0, speeds[key], f" {common.runplots.SPEED_LABEL[key]} = {speeds[key]:.0f}",
+        ax_v.text(1.0, speeds[key], f" {SPEED_LABEL[key]} = {speeds[key]:.0f}",
                   transform=ax_v.get_yaxis_transform(), va="center", fontsize=8)
     ax_v.set_ylim(0.0, top)
     ax_x.set_ylabel(r"$x_{\rm tip}$ [mm]")
@@ -59,7 +60,7 @@ def figure(loaded, speeds, path, reading):
     fig.suptitle("Leading sliding tip in Cases I–V: position and speed (5-point progressive fit)\n"
                  + reading, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=common.runplots.DPI)
+    fig.savefig(path, dpi=DPI)
     return path
 
 
@@ -78,7 +79,7 @@ def report(args, runs):
     for key, (paper, _) in SPEEDS.items():
         rep.add(f"{key}", paper, speeds[key], "m/s")
     for name, r in loaded.items():
-        t0, _ = rp.first_slip(r)
+        t0, _ = measures.first_slip(r)
         if t0 is None:
             rep.add(f"{CASES[name]}: median V_tip, later half of sliding", PAPER[name], None, "m/s",
                     note="no sliding")

@@ -25,7 +25,9 @@ import sys
 import numpy as np
 
 import _common as common
-from _common import rp
+from fricfem.plot.interface import interface_distributions
+from fricfem.analysis import cell_lengths
+from fricfem.analysis import measures
 
 T_A, T_B = 32e-6, 34e-6  # s, the times of Fig. 10
 SHARP = 40.0  # m/s, the paper's level between the gradual and the sharp part of the pulse
@@ -38,15 +40,15 @@ def leading_pulse(r, t):
     if not regs:
         return None
     k, g = r.at(t), regs[-1]
-    w = common.diagnostics.cell_lengths(r.x1)
+    w = cell_lengths(r.x1)
     pulse = slice(g.i0, g.i1 + 1)
-    sharp = r.rate[k, pulse] >= SHARP
+    sharp = r.slip_rate[k, pulse] >= SHARP
     behind = (r.x1 < g.x_start) & (r.x1 > g.x_start - 2e-3)
     mu = common.mu_app(r)[k]
     return {
         "width_mm": g.width * 1e3, "sharp_mm": float(w[pulse][sharp].sum()) * 1e3, "sharp_points": int(sharp.sum()),
-        "peak": g.peak, "ts_max": float(r.ts[k, pulse].max()) / 1e6,
-        "ts_behind": float(r.ts[k, behind].min()) / 1e6 if behind.any() else np.nan,
+        "peak": g.peak, "ts_max": float(np.abs(r.shear_traction)[k, pulse].max()) / 1e6,
+        "ts_behind": float(np.abs(r.shear_traction)[k, behind].min()) / 1e6 if behind.any() else np.nan,
         "mu_front": float(mu[g.i1]), "mu_max": float(mu[pulse].max()),
         "mu_behind": float(mu[behind].min()) if behind.any() else np.nan,
     }
@@ -60,21 +62,21 @@ def report(args, runs):
     sigma0 = r.summary["input"]["loading"]["sigma0"]
 
     # ## Figures
-    rep.figure(common.runplots.interface_distributions(d, [T_A, T_B], args.out / "fig10_interface_32_34us.png",
+    rep.figure(interface_distributions(d, [T_A, T_B], args.out / "fig10_interface_32_34us.png",
                                                        info=common.info(d)))
     for p in common.isochromatics(d, [T_A, T_B], args.out):
         rep.figure(p)
 
     # ## Numbers quoted in the text
-    t0, x0 = rp.first_slip(r)
+    t0, x0 = measures.first_slip(r)
     rep.add("sliding starts at", 28.0, t0, "µs")
     rep.add("... at x1 (a pulse initiates at the impact edge)", 0.0, x0, "mm")
-    rep.add("sliding mode", "pulse", rp.mode(r))
+    rep.add("sliding mode", "pulse", measures.mode(r))
     rep.add("pulses at 32 µs", 2, len(common.leading_regions(r, T_A)))
     rep.add("pulses at 34 µs", 3, len(common.leading_regions(r, T_B)))
-    rep.add("peak Δu̇_slip, whole run", 700.0, float(r.rate.max()), "m/s")
+    rep.add("peak Δu̇_slip, whole run", 700.0, float(r.slip_rate.max()), "m/s")
     rep.add("leading pulse tip at 32 µs (Fig. 11)", 22.0, r.tip(T_A) * 1e3, "mm")
-    rep.add("loading front at 32 µs", 71.0, rp.loading_front(r, T_A, sigma0), "mm")
+    rep.add("loading front at 32 µs", 71.0, measures.loading_front(r, T_A, sigma0), "mm")
     p = leading_pulse(r, T_B) or {}  # the profile the text describes: the solid curve, 34 µs
     rep.add("leading pulse: peak Δu̇_slip, 34 µs", 700.0, p.get("peak"), "m/s")
     rep.add("leading pulse: width, 34 µs", 5.4, p.get("width_mm"), "mm", note="paper: 4.5 + 0.5 + 0.4 mm")
@@ -88,7 +90,7 @@ def report(args, runs):
     rep.add("μ_app just behind it (min over 2 mm), 32 µs", 0.44, p.get("mu_behind"))
     k = r.at(T_A)
     mid = (r.x1 > 10e-3) & (r.x1 < 60e-3)
-    rep.add("median T_n over 10 mm < x1 < 60 mm, 32 µs", 30.0, float(np.median(r.tn[k, mid])) / 1e6, "MPa")
+    rep.add("median T_n over 10 mm < x1 < 60 mm, 32 µs", 30.0, float(np.median(r.normal_traction[k, mid])) / 1e6, "MPa")
     rep.add("V_tip at 32 µs (mean over ±1 µs)", 2800.0, common.v_tip(r, T_A), "m/s",
             note="paper: from the 26° shear Mach line in Fig. 11")
     return rep.write()

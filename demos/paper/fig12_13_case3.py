@@ -23,7 +23,8 @@ import sys
 import numpy as np
 
 import _common as common
-from _common import rp
+from fricfem.plot.interface import interface_distributions
+from fricfem.analysis import measures
 
 T_A, T_B = 32e-6, 33e-6  # s, the times of Fig. 12
 
@@ -37,9 +38,9 @@ def train_tractions(r, t):
     k, lead = r.at(t), regs[-1]
     train = (r.x1 > 5e-3) & (r.x1 < lead.x_start)
     mu = common.mu_app(r)[k]
-    ts = r.ts[k, train] / 1e6
+    ts = np.abs(r.shear_traction)[k, train] / 1e6
     window = (r.x1 >= 30e-3) & (r.x1 <= 60e-3)
-    tn = r.tn[k] / 1e6
+    tn = r.normal_traction[k] / 1e6
     i = np.flatnonzero(window)[np.argmax(tn[window])]
     return {"ts_mean": ts.mean() if ts.size else np.nan, "ts_swing": np.ptp(ts) if ts.size else np.nan,
             "mu_min": mu[train].min() if train.any() else np.nan,
@@ -55,21 +56,21 @@ def report(args, runs):
     rep.add_run("case3", d, r)
 
     # ## Figures
-    rep.figure(common.runplots.interface_distributions(d, [T_A, T_B], args.out / "fig12_interface_32_33us.png",
+    rep.figure(interface_distributions(d, [T_A, T_B], args.out / "fig12_interface_32_33us.png",
                                                        info=common.info(d)))
-    rep.figure(common.runplots.interface_distributions(d, [T_A, T_B], args.out / "fig12_interface_32_33us_zoom.png",
+    rep.figure(interface_distributions(d, [T_A, T_B], args.out / "fig12_interface_32_33us_zoom.png",
                                                        info=common.info(d), xlim=(30e-3, 60e-3)))
     for p in common.isochromatics(d, [T_A], args.out):
         rep.figure(p)
 
     # ## Numbers quoted in the text
-    rep.add("sliding mode", "pulse-train", rp.mode(r))
+    rep.add("sliding mode", "pulse-train", measures.mode(r))
     train = common.pulse_train(r, T_A)
     rep.add("slipping regions at 32 µs", None, train["n_regions"])
     rep.add("pulse width, 32 µs", 1.33, train["width_mm"], "mm")
     rep.add("stick length between pulses, 32 µs", 0.92, train["stick_mm"], "mm")
     rep.add("pulse spacing, 32 µs", 2.21, train["spacing_mm"], "mm")
-    rep.add("peak Δu̇_slip, 32 µs", 120.0, float(r.rate[r.at(T_A)].max()), "m/s")
+    rep.add("peak Δu̇_slip, 32 µs", 120.0, float(r.slip_rate[r.at(T_A)].max()), "m/s")
     rep.add("leading front, 32 µs", 55.0, r.tip(T_A) * 1e3, "mm")
     rep.add("V_tip at 32 µs (mean over ±1 µs)", "≈ c_l", common.v_tip(r, T_A), "m/s",
             note=f"c_l = {r.summary['speeds']['c_l']:.0f} m/s; paper: from the 37° shear Mach wave in Fig. 13")

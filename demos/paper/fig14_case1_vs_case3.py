@@ -23,6 +23,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import _common as common
+from fricfem.plot.common import DPI
+from fricfem.plot.common import label as quantity_label
 
 T_FIG = 32e-6  # s
 CASES = {"case1": ("Case I", "smooth"), "case3": ("Case III", "steps")}
@@ -34,7 +36,7 @@ def panel(ax, rundir, title):
     x, slip = common.profile(rundir, "slip", T_FIG)
     _, jump = common.profile(rundir, "jump_s", T_FIG)
     _, ts = common.profile(rundir, "shear_traction", T_FIG)
-    lab = common.runplots.label
+    lab = quantity_label
     ax.plot(x * 1e3, slip * 1e6, "C0-", lw=1.2, label=lab("slip"))
     ax.plot(x * 1e3, sgn * jump * 1e6, "C2--", lw=1.2, label=lab("jump_s", sgn))
     ax.set_ylabel("slip, jump [µm]")
@@ -49,7 +51,7 @@ def panel(ax, rundir, title):
 
 def report(args, runs):
     rep = common.Report(args, "Fig. 14: Δu_slip, Δu_s and T_s, Case I against Case III at 32 µs")
-    fig = Figure(figsize=(7.0, 6.5), dpi=common.runplots.DPI)
+    fig = Figure(figsize=(7.0, 6.5), dpi=DPI)
     axes = fig.subplots(2, 1, sharex=True)
     for k, (name, (label, paper)) in enumerate(CASES.items()):
         d = runs[name]
@@ -65,8 +67,8 @@ def report(args, runs):
         rep.add(f"{label}: largest |Δu_s|, 32 µs", None, float(np.abs(jump).max()) * 1e6, "µm")
         rep.add(f"{label}: steps in Δu_slip (stick stretches inside the slipped zone)", paper,
                 max(len(r.regions(k32)) - 1, 0))
-        inside = (r.rate[k32] > 0) & (r.x1 > 5e-3) & (r.x1 < r.tip(T_FIG) - 5e-3)
-        swing = float(np.ptp(r.ts[k32, inside])) / 1e6 if inside.any() else None
+        inside = (r.slip_rate[k32] > 0) & (r.x1 > 5e-3) & (r.x1 < r.tip(T_FIG) - 5e-3)
+        swing = float(np.ptp(np.abs(r.shear_traction)[k32, inside])) / 1e6 if inside.any() else None
         rep.add(f"{label}: |T_s| swing along the slipped zone, 32 µs",
                 "steady" if name == "case1" else "oscillatory", swing, "MPa")
     axes[-1].set_xlim(0.0, 80.0)
@@ -76,7 +78,7 @@ def report(args, runs):
     fig.tight_layout()
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "fig14_case1_vs_case3_32us.png"
-    fig.savefig(path, dpi=common.runplots.DPI)
+    fig.savefig(path, dpi=DPI)
     rep.figure(path)
     return rep.write()
 

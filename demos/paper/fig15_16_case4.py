@@ -25,7 +25,8 @@
 import sys
 
 import _common as common
-from _common import rp
+from fricfem.plot.interface import interface_distributions
+from fricfem.analysis import measures
 
 TIMES = (22e-6, 32e-6, 41e-6)  # s, Figs. 15 and 16 (the text's times)
 UPPER_PLATE = (0.0, 0.080, 0.0, 0.030)  # isochromatic window (x1_min, x1_max, x2_min, x2_max) [m]
@@ -46,16 +47,16 @@ def report(args, runs):
     rep.figure(common.slip_rate_panels(d, TIMES, args.out / "fig15_slip_rate_22_32_41us.png"))
     for pair in (TIMES[:2], TIMES[1:]):
         name = f"interface_{pair[0] * 1e6:.0f}_{pair[1] * 1e6:.0f}us.png"
-        rep.figure(common.runplots.interface_distributions(d, pair, args.out / name, info=common.info(d)))
+        rep.figure(interface_distributions(d, pair, args.out / name, info=common.info(d)))
     for p in common.isochromatics(d, TIMES, args.out, window=UPPER_PLATE):
         rep.figure(p)
 
     # ## Numbers quoted in the text
     t22, t32, t41 = TIMES
     r22, r32, r41 = (common.leading_regions(r, t) for t in TIMES)
-    t0, _ = rp.first_slip(r)
+    t0, _ = measures.first_slip(r)
     rep.add("sliding starts at", 14.0, t0, "µs")
-    rep.add("sliding mode", "mixed (pulses coalescing into a crack)", rp.mode(r))
+    rep.add("sliding mode", "mixed (pulses coalescing into a crack)", measures.mode(r))
     rep.add("pulses at 22 µs", 3, len(r22))
     rep.add("leading pulse tip at 22 µs", 18.0, r.tip(t22) * 1e3, "mm")
     rep.add("stick between first and second pulse, 22 µs", 3.4, gap(r22), "mm")

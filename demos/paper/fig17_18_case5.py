@@ -26,7 +26,8 @@ import sys
 import numpy as np
 
 import _common as common
-from _common import rp
+from fricfem.plot.interface import interface_distributions
+from fricfem.analysis import measures
 
 TIMES = (32e-6, 38e-6, 44e-6)  # s, Fig. 17 (caption)
 FRINGES = (32e-6, 38e-6, 44.6e-6)  # s, Fig. 18
@@ -41,18 +42,18 @@ def pulse_and_crack(r, t):
         return {}
     k, g = r.at(t), regs[-1]
     mu = common.mu_app(r)[k]
-    ts = r.ts[k] / 1e6
+    ts = np.abs(r.shear_traction)[k] / 1e6
     tip = (r.x1 >= g.x_start) & (r.x1 <= g.x_end + 1e-3)
     pulse = slice(g.i0, g.i1 + 1)
-    crack = (r.rate[k] > 0) & (r.x1 < g.x_start)
-    i_peak = g.i0 + int(np.argmax(r.rate[k, pulse]))
+    crack = (r.slip_rate[k] > 0) & (r.x1 < g.x_start)
+    i_peak = g.i0 + int(np.argmax(r.slip_rate[k, pulse]))
 
     def med(a):
         return float(np.median(a[crack])) if crack.any() else np.nan
 
     return {"width_mm": g.width * 1e3, "peak": g.peak, "x_start": g.x_start, "x_end": g.x_end,
             "ts_tip": ts[tip].max(), "ts_pulse": ts[pulse].min(), "ts_crack": med(ts),
-            "mu_tip": mu[tip].max(), "mu_peak": mu[i_peak], "mu_crack": med(mu), "rate_crack": med(r.rate[k])}
+            "mu_tip": mu[tip].max(), "mu_peak": mu[i_peak], "mu_crack": med(mu), "rate_crack": med(r.slip_rate[k])}
 
 
 def report(args, runs):
@@ -64,15 +65,15 @@ def report(args, runs):
     # ## Figures
     rep.figure(common.slip_rate_panels(d, TIMES, args.out / "fig17_slip_rate_32_38_44us.png",
                                        traction_at=TIMES[-1]))
-    rep.figure(common.runplots.interface_distributions(d, TIMES[1:], args.out / "interface_38_44us.png",
+    rep.figure(interface_distributions(d, TIMES[1:], args.out / "interface_38_44us.png",
                                                        info=common.info(d)))
     for p in common.isochromatics(d, FRINGES, args.out):
         rep.figure(p)
 
     # ## Numbers quoted in the text
-    t0, _ = rp.first_slip(r)
+    t0, _ = measures.first_slip(r)
     rep.add("sliding starts (as a pulse) at", 31.0, t0, "µs")
-    rep.add("sliding mode", "mixed (a pulse followed by a crack)", rp.mode(r))
+    rep.add("sliding mode", "mixed (a pulse followed by a crack)", measures.mode(r))
     a, b = pulse_and_crack(r, 32e-6), pulse_and_crack(r, 44e-6)
     rep.add("pulse width at 32 µs", 8.5, a.get("width_mm"), "mm")
     rep.add("pulse width at 44 µs", 2.5, b.get("width_mm"), "mm")

@@ -20,7 +20,7 @@
 import sys
 
 import _common as common
-from _common import rp
+from fricfem.analysis import measures
 
 SCENES = {"lineA_v2": 2, "lineA_v7": 7, "lineA_v10": 10, "lineA_v20": 20, "lineA_v40": 40}  # V_imp [m/s]
 MODES = {2: "crack-like", 7: "mixed", 10: "pulse-train", 20: "pulse-train", 40: "pulse-train"}
@@ -37,7 +37,7 @@ def report(args, runs):
         # ## Numbers at the station, per run
         m = common.station_measures(r, common.sign(runs[name]))
         tag = f"V_imp = {v} m/s"
-        rep.add(f"{tag}: sliding mode", MODES[v], rp.mode(r))
+        rep.add(f"{tag}: sliding mode", MODES[v], measures.mode(r))
         rep.add(f"{tag}: sliding starts at the station", None, m.get("onset_us"), "µs")
         rep.add(f"{tag}: peak Δu̇_slip", "grows with V_imp" if v >= 10 else None, m.get("peak_slip_rate"), "m/s")
         rep.add(f"{tag}: sliding episodes / median period", "frequency grows with V_imp" if v >= 10 else None,

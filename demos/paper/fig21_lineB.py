@@ -22,7 +22,7 @@
 import sys
 
 import _common as common
-from _common import rp
+from fricfem.analysis import measures
 
 SCENES = {"lineB_s6": 6, "lineB_s10": 10, "lineB_s16": 16, "lineB_s30": 30}  # Σ0 [MPa]
 MODES = {6: "crack-like", 10: "crack-like", 16: "pulse-train", 30: "pulse"}
@@ -39,14 +39,14 @@ def report(args, runs):
         # ## Numbers at the station, per run
         m = common.station_measures(r, common.sign(runs[name]))
         tag = f"Σ0 = {s} MPa"
-        rep.add(f"{tag}: sliding mode", MODES[s], rp.mode(r))
+        rep.add(f"{tag}: sliding mode", MODES[s], measures.mode(r))
         rep.add(f"{tag}: sliding starts at the station", "later with Σ0", m.get("onset_us"), "µs")
         rep.add(f"{tag}: peak / late mean Δu̇_slip at the station", "peak > steady" if s <= 10 else None,
                 [m.get("peak_slip_rate"), m.get("late_slip_rate")], "m/s")
         if s == 16:
             rep.add(f"{tag}: sliding time / period at the station", 0.5, m.get("duty"))
         if s == 30:
-            rep.add(f"{tag}: peak Δu̇_slip anywhere", 820.0, float(r.rate.max()), "m/s")
+            rep.add(f"{tag}: peak Δu̇_slip anywhere", 820.0, float(r.slip_rate.max()), "m/s")
         rep.add(f"{tag}: mean T_s, late", "grows with Σ0", m.get("late_ts_MPa"), "MPa")
         rep.add(f"{tag}: peak μ_app at the station", "no growth with Σ0", m.get("peak_mu"))
 

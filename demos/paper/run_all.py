@@ -46,7 +46,6 @@ def main(argv=None):
 
     from mpi4py import MPI
 
-    sys.path.insert(0, str(Path(__file__).parent))
     runs = args.runs or args.out / "runs"
     index = {}
     for name in DEMOS:

@@ -36,6 +36,37 @@ in place over ``dt`` at the imposed slip rate ``v`` [m/s], without interface
 elasticity, and return the frictional strength [Pa] at the end of the step;
 used by the point driver (:mod:`.driver`) to trace the law's response.
 
+Optional verbs (``None`` when a law does not provide them):
+
+``rates(p, state, Ts, Tn) -> (v, dstate_dt)`` (plain Python/numpy, not numba):
+    the law's continuous equations exactly as its paper writes them — the slip
+    rate v >= 0 [m/s] at the shear traction ``Ts`` [Pa] (signed; the law uses
+    |T_s|), normal traction ``Tn`` [Pa] and ``state`` (``law.state`` order),
+    and the time derivative of the state at that slip rate (ndarray, same
+    length as the state).  Written from the equations, never by calling the
+    numba integrators; used only by the independent scipy references
+    (:mod:`.reference`).  A law whose slip rate switches off below a threshold
+    (stick) may also accept a keyword ``branch``: ``"slide"`` returns the
+    smooth continuation of the sliding branch's v (negative below the
+    threshold), ``"stick"`` the sticking branch (v = 0); the references locate
+    the switch as an event with it.  ``None`` for a rate-independent law
+    (slip weakening), whose references are exact piecewise solutions.
+
+``rigid(p, s, T_stick, Z, Tn0, Tn1, dt) -> (Ts, v, dslip, dwork, nsub)`` (numba):
+    one step ``dt`` [s] of a *rigid* (split-node) interface point.  ``T_stick``
+    [Pa] is the signed shear traction that keeps the node pair from slipping
+    over the step, ``Z`` > 0 [Pa·s/m] the drop of traction per unit slip rate
+    of the pair, so that Ts = T_stick − Z v sgn(T_stick).  Returns the end
+    slip rate v >= 0 (along sgn(T_stick)) consistent with the law, its state
+    integrated implicitly over the step (each law says how), with
+    |Ts| <= strength when v = 0; the slip over the step (v·dt: the slip is
+    backward Euler), the frictional work |Ts|·v·dt >= 0 and the number of
+    local iterations.  ``s`` (state, then memo) is updated in place; the
+    normal traction is ``Tn1`` at the end of the step (``Tn0`` at its start).
+
+``kernel``: the law's specialised interface kernel (set by the law module;
+    None: the generic kernel).
+
 ``ADVANCE_TYPE`` and ``SLIDE_TYPE`` are the numba function types of ``advance``
 and ``slide``: a numba function declared with them is compiled (and cached)
 once for all laws, which pass their dispatcher in (see :mod:`.driver`).
@@ -84,6 +115,9 @@ class Law(NamedTuple):
     initial_state: Callable  # python (p, Tn0, Ts0) -> ndarray
     slide: Callable = None  # numba dispatcher (p, s, v, Tn0, Tn1, dt) -> |T_s|, optional
     memo: int = 0  # storage the law keeps after its state for itself (NaN at first), see ``storage``
+    rates: Callable = None  # python (p, state, Ts, Tn) -> (v, dstate_dt), optional, see module docstring
+    rigid: Callable = None  # numba (p, s, T_stick, Z, Tn0, Tn1, dt) -> (Ts, v, dslip, dwork, nsub), optional
+    kernel: Callable = None  # the law's specialised interface kernel (set by the law module; None: the generic kernel)
 
 
 def storage(law: Law, state) -> np.ndarray:
@@ -133,6 +167,16 @@ def validate(law: Law, values: dict, where: str = "friction") -> dict:
             )
         out[p.name] = v
     return out
+
+
+def as_params(law: Law, params) -> np.ndarray:
+    """Packed parameters from a dict (validated, defaults filled in), None (the
+    defaults) or an array already packed."""
+    if params is None:
+        params = {}
+    if isinstance(params, dict):
+        return pack(law, validate(law, params))
+    return np.array(params, dtype=np.float64)
 
 
 def pack(law: Law, values: dict) -> np.ndarray:

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numba import types
 
-from .base import ADVANCE_TYPE, SLIDE_TYPE, Law, pack, storage, validate
+from .base import ADVANCE_TYPE, SLIDE_TYPE, Law, as_params, storage
 
 _vec = types.float64[::1]
 
@@ -48,14 +48,6 @@ class PointHistory(NamedTuple):
         """Apparent friction coefficient |T_s| / T_n."""
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.abs(self.Ts) / self.Tn
-
-
-def _params(law: Law, params) -> np.ndarray:
-    if params is None:
-        params = {}
-    if isinstance(params, dict):
-        return pack(law, validate(law, params))
-    return np.array(params, dtype=np.float64)
 
 
 def _state0(law: Law, p, Tn0, Ts0, state0):
@@ -124,7 +116,7 @@ def drive_jump_rate(
     Ts0        initial shear traction [Pa]; state0 defaults to law.initial_state
     advance    another function with the ``advance`` contract (default law.advance)
     """
-    p = _params(law, params)
+    p = as_params(law, params)
     vs = np.array(jump_rate, dtype=np.float64)
     t = _check_times(t, len(vs), "jump_rate")
     Tn = np.array(np.broadcast_to(Tn, t.shape), dtype=np.float64)
@@ -165,7 +157,7 @@ def drive_slip_rate(law: Law, t, slip_rate, Tn, params=None, state0=None) -> Poi
     """
     if law.slide is None:
         raise ValueError(f"friction law '{law.name}' has no imposed-slip-rate response (slide)")
-    p = _params(law, params)
+    p = as_params(law, params)
     v = np.array(slip_rate, dtype=np.float64)
     t = _check_times(t, len(v), "slip_rate")
     if np.any(v < 0.0):

@@ -18,6 +18,7 @@ T_n = T_n(t + dt), if |T*| > μ(δ) T_n the slip dδ solves
 import numba
 import numpy as np
 
+from ..kernels.interface import specialise
 from .base import Law, Param, frictional_work, sign
 
 MU_S, MU_D, DC = range(3)
@@ -83,6 +84,41 @@ def slide(p, s, v, Tn0, Tn1, dt):
     return mu(p, s[0]) * Tn1
 
 
+@numba.njit(cache=True)
+def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
+    """One step of a rigid split-node pair (contract in :mod:`.base`), closed
+    form, backward Euler in the slip: the pair sticks (v = 0, T_s = T_stick)
+    if |T_stick| <= μ(δ) T_n(t + dt); otherwise v solves
+    |T_stick| − Z v = μ(δ + v dt) T_n, linear on each branch of μ.  The rate
+    form of :func:`advance`'s return map (C_s dδ there is Z v here)."""
+    delta = s[0]
+    a = abs(T_stick)
+    if a <= mu(p, delta) * Tn1:
+        return T_stick, 0.0, 0.0, 0.0, 1
+    k = Tn1 * (p[MU_S] - p[MU_D]) / p[DC] * dt  # strength lost per unit slip rate over the step
+    v = -1.0
+    if Z > k and delta < p[DC]:
+        # sloping branch: a − Z v = T_n (μ(δ) − w v dt)
+        v = (a - mu(p, delta) * Tn1) / (Z - k)
+        if delta + v * dt > p[DC]:
+            v = -1.0
+    if v < 0.0:
+        # flat branch μ = μd.  Safeguard: when Z <= k the pair's impedance is
+        # below the weakening (the implicit equation's sloping branch rises,
+        # no root there); the root is then on this branch.
+        v = max((a - p[MU_D] * Tn1) / Z, 0.0)
+    s[0] = delta + v * dt
+    Ts1 = sign(T_stick) * (a - Z * v)
+    ds = v * dt
+    return Ts1, v, ds, abs(Ts1) * ds, 1
+
+
+@numba.njit(cache=True, _nrt=False)
+def kernel(*args):
+    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise(advance, *args)
+
+
 LAW = Law(
     name="slip_weakening",
     doc="linear slip-weakening Coulomb friction on the elastic interface",
@@ -92,4 +128,6 @@ LAW = Law(
     steady_mu=steady_mu,
     initial_state=initial_state,
     slide=slide,
+    rigid=rigid,  # no ``rates``: rate independent; exact references in .reference
+    kernel=kernel,
 )

@@ -7,6 +7,7 @@ for wave-propagation and energy tests of the bulk/interface coupling.
 import numba
 import numpy as np
 
+from ..kernels.interface import specialise
 from .base import Law
 
 
@@ -24,6 +25,18 @@ def initial_state(p, Tn0, Ts0):
     return np.zeros(0)
 
 
+@numba.njit(cache=True)
+def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
+    """The rigid split-node pair never slips: T_s = T_stick, v = 0."""
+    return T_stick, 0.0, 0.0, 0.0, 1
+
+
+@numba.njit(cache=True, _nrt=False)
+def kernel(*args):
+    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise(advance, *args)
+
+
 LAW = Law(
     name="stuck",
     doc="elastic interface that never slides (Ṫ_s = C_s Δu̇_s)",
@@ -32,4 +45,6 @@ LAW = Law(
     advance=advance,
     steady_mu=steady_mu,
     initial_state=initial_state,
+    rigid=rigid,
+    kernel=kernel,
 )

@@ -1,0 +1,184 @@
+"""Run a batch of scenes: resumable, heaviest first, dealt to groups of ranks.
+
+Used by ``fricfem sweep``, the stability study and the paper demos.
+
+    jobs = [Job(key, rundir, scene, cost=expected_cost(scene)) for ...]
+    todo = [j for j in jobs if status(j) != "done"]
+    results = run_jobs(todo, comm, ranks_per_job=1)       # collective
+
+Each job is one scene run into its own run directory.  When a job finishes
+(complete, or stopped by the watchdog: rerunning gives the same), the batch
+writes ``job.json`` beside the run's files: the job's *identity* (by default
+the scene's input tables) and its *record* (what the job's work returned).
+A later batch reuses a job whose ``job.json`` holds the same identity
+(:func:`status`), so a killed batch picks up where it stopped.
+
+Under MPI the communicator is split into groups of ``ranks_per_job`` ranks;
+the jobs are sorted by expected cost, heaviest first, and dealt round-robin to
+the groups; each group runs its jobs one after another on its own
+communicator.  ``ranks_per_job = 1``: one serial run per rank (a sweep scales
+by points); ``= comm.size``: every job on all ranks (the paper demos).
+"""
+
+from __future__ import annotations
+
+import gc
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Callable, NamedTuple
+
+from mpi4py import MPI
+
+JOB_FILE = "job.json"
+
+
+class Job(NamedTuple):
+    """One run of a batch.
+
+    key       unique name in the batch (log lines, results)
+    dir       its run directory
+    scene     the validated :class:`fricfem.scene.Scene`
+    cost      expected relative cost (:func:`expected_cost`); only the order matters
+    identity  what a stored run must match to be reused (JSON-able; default the scene's input)
+    """
+
+    key: str
+    dir: Path
+    scene: object
+    cost: float = 1.0
+    identity: object = None
+
+    def ident(self):
+        """The identity, normalised through JSON (what ``job.json`` holds)."""
+        return json.loads(json.dumps(self.scene.raw if self.identity is None else self.identity))
+
+
+def expected_cost(scene) -> float:
+    """Relative cost of a run (heavier first).
+
+    Steps ∝ t_end / dt with dt ∝ the smallest cell size (interface springs
+    stiffer than the bulk shorten it further, ∝ 1/√C_n); work per step ∝ the
+    cell count ∝ 1/(dx·dy); and the friction kernel sub-steps more when
+    sliding is fast, which grows with V_imp.
+    """
+    m = scene.mesh
+    h = min(m.dx, m.dy)
+    stiff = max(1.0, math.sqrt(scene.Cn / 3e11))
+    return scene.t_end / h * stiff / (m.dx * m.dy) * (1.0 + scene.pulse.v_imp / 10.0)
+
+
+def stored(job: Job) -> dict | None:
+    """``job.json`` of the job's directory ({"identity", "record"}), or None."""
+    try:
+        return json.loads((Path(job.dir) / JOB_FILE).read_text())
+    except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError):
+        return None
+
+
+def status(job: Job) -> str:
+    """'done' (finished with the same identity), 'stale' (finished with another), 'todo'.
+
+    Finished: ``job.json`` is there and the run's ``summary.json`` says it is
+    complete or was stopped by the watchdog (a directory whose run was killed
+    or damaged since is run again)."""
+    from .output.rundir import read_summary
+
+    s = stored(job)
+    if s is None or not _finished(read_summary(job.dir)):
+        return "todo"
+    return "done" if s.get("identity") == job.ident() else "stale"
+
+
+def deal(jobs, groups: int) -> list:
+    """Round-robin over jobs sorted by expected cost (heaviest first): a list per group."""
+    order = sorted(jobs, key=lambda j: (-j.cost, j.key))
+    return [order[g::groups] for g in range(groups)]
+
+
+def run_scene_job(job: Job, comm) -> dict:
+    """The default work of a job: run its scene (overwriting the directory); the summary."""
+    from .runner import run_scene
+
+    return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True)
+
+
+def _finished(record: dict) -> bool:
+    return bool(record.get("complete") or record.get("watchdog"))
+
+
+class Result(NamedTuple):
+    """What a job left: its key, the record (None on error), the error text, wall seconds."""
+
+    key: str
+    record: dict | None
+    error: str | None
+    wall_s: float
+
+
+def _free(comm) -> None:
+    """Runs on a sub-communicator leave PETSc objects to the garbage collector: free them now."""
+    gc.collect()
+    petsc = sys.modules.get("petsc4py.PETSc")
+    if petsc is not None and hasattr(petsc, "garbage_cleanup"):
+        petsc.garbage_cleanup(comm)
+
+
+def _run_group(jobs, comm, work, log, finished) -> list:
+    """Run ``jobs`` one after another on ``comm`` (collective on it)."""
+    done = []
+    for k, job in enumerate(jobs):
+        t0 = time.perf_counter()
+        record = err = None
+        if comm.rank == 0:  # a job running is not finished, whatever it was before
+            (Path(job.dir) / JOB_FILE).unlink(missing_ok=True)
+        try:
+            record = work(job, comm)
+        except Exception as e:  # one failed job does not stop the batch (nor leave ranks waiting)
+            err = f"{type(e).__name__}: {e}"
+        wall = time.perf_counter() - t0
+        if record is not None and finished(record) and comm.rank == 0:
+            (Path(job.dir) / JOB_FILE).write_text(json.dumps({"identity": job.ident(), "record": record},
+                                                              indent=1, default=str))
+        if log is not None and comm.rank == 0:
+            rec = record or {}
+            what = err or rec.get("outcome") or (rec.get("mode") or {}).get("label") or rec.get("watchdog") or "done"
+            log(f"{k + 1}/{len(jobs)} {job.key}: {what} ({wall:.1f} s)")
+        done.append(Result(job.key, record, err, wall))
+        _free(comm)
+        if record is not None and record.get("interrupted"):  # SIGTERM: leave the rest for a rerun
+            if log is not None and comm.rank == 0:
+                log("interrupted (SIGTERM): stopping; rerun the same command to resume")
+            break
+    return done
+
+
+def run_jobs(jobs, comm=MPI.COMM_WORLD, *, ranks_per_job: int = 1, work: Callable = run_scene_job,
+             log: Callable | None = None, finished: Callable = _finished) -> list | None:
+    """Run ``jobs`` on groups of ``ranks_per_job`` ranks of ``comm`` (collective).
+
+    ``work(job, group_comm) -> record`` (a JSON-able dict) does one job
+    (default: run its scene; the record is the summary); ``finished(record)``
+    says whether the job is settled, so that ``job.json`` is written and the
+    job reused next time.  Returns the :class:`Result` of every job on rank 0
+    of ``comm`` (None elsewhere), in the order of ``jobs``.
+    """
+    k = int(ranks_per_job)
+    if k < 1 or comm.size % k:
+        raise ValueError(f"--ranks-per-scene {ranks_per_job}: must divide the number of ranks ({comm.size})")
+    groups = comm.size // k
+    color = comm.rank // k
+    sub = comm.Split(color, comm.rank) if groups > 1 else comm
+    try:
+        mine = deal(jobs, groups)[color]
+        done = _run_group(mine, sub, work, log, finished)
+    finally:
+        if sub is not comm:
+            sub.Free()
+    leaders = comm.gather(done if (comm.rank % k == 0) else [], root=0)
+    if comm.rank != 0:
+        return None
+    by_key = {r.key: r for part in leaders for r in part}
+    return [by_key[j.key] for j in jobs if j.key in by_key]

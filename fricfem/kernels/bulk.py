@@ -1,0 +1,228 @@
+"""numba kernels of the fused bulk step: one sweep over the rows of K that
+computes K u, adds the interface forces, updates v and u and applies the
+struck edge (the orchestration, and the derivation: :mod:`fricfem.step.fused`).
+
+Arrays and scalars only.  Arguments come bundled as plain tuples (numba
+dispatches a plain tuple as fast as loose arguments; a NamedTuple costs ~5 µs
+per call), unpacked on the first line of each kernel:
+
+    rows    (ptr uint32[n+1], col uint32[n_blocks], val float64[4 n_blocks])
+            this rank's block rows of K (2×2 blocks, [N/m², per m thickness]);
+            ``col`` < n an owned node, n + k the k-th gathered off-rank node
+    special (node int32[n_sp+1], impact int32[n_sp], deferred int8[n_sp],
+            preloaded int8[n_sp]): the rows needing more than the plain update
+            (:class:`fricfem.step.fused.Special`)
+    edge    (mass float64[n_imp] [kg/m], force, damp float64[n_imp] or empty)
+            the struck edge's x1 dofs: lumped masses, and for a traction load
+            the coefficients of force · sv − damp · v1 [N·s/m², per m]
+    load    (dt [s], u0 = U(t^n) [m], u1 = U(t^{n+1}) [m], v_bc = (u1 − u0)/dt
+            [m/s], sv = sign · V(t^n) [m/s]) of this step
+
+Rounding: each row is summed in the order of PETSc's AIJ product (columns in
+order; on a boundary row the owned columns first, then the off-rank ones), so
+the fused step reproduces the two-pass step (``K.mult``, interface forces,
+update) bit for bit.
+"""
+
+import numba
+
+# Activity of a row: QUIET rows are skipped; ACTIVE rows are computed; SPREAD
+# rows are computed and have woken their neighbours (fricfem.step.fused).
+QUIET, ACTIVE, SPREAD = 0, 1, 2
+
+
+@numba.njit(inline="always", cache=True)
+def _add_block(val, b, x0, x1, s0, s1):
+    """Add the 2×2 block at ``val[b:b + 4]`` times (x0, x1) to (s0, s1), term by
+    term in PETSc's order (the sums stay bit-identical to its product)."""
+    s0 += val[b] * x0
+    s0 += val[b + 1] * x1
+    s1 += val[b + 2] * x0
+    s1 += val[b + 3] * x1
+    return s0, s1
+
+
+@numba.njit(cache=True)
+def _row(ptr, col, val, x, I):
+    """(K x)_{2I}, (K x)_{2I+1} for a row whose columns are all owned; summed in
+    column order, as PETSc's AIJ product."""
+    s0 = 0.0
+    s1 = 0.0
+    for p in range(ptr[I], ptr[I + 1]):
+        j = 2 * col[p]
+        s0, s1 = _add_block(val, 4 * p, x[j], x[j + 1], s0, s1)
+    return s0, s1
+
+
+@numba.njit(cache=True)
+def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
+    """The same for a boundary row, ``xg`` holding the gathered off-rank values:
+    owned columns first, then the off-rank ones (PETSc's MPIAIJ order)."""
+    s0 = 0.0
+    s1 = 0.0
+    for p in range(ptr[I], ptr[I + 1]):
+        J = col[p]
+        if J < n_nodes:
+            s0, s1 = _add_block(val, 4 * p, x[2 * J], x[2 * J + 1], s0, s1)
+    for p in range(ptr[I], ptr[I + 1]):
+        J = col[p]
+        if J >= n_nodes:
+            k = 2 * (J - n_nodes)
+            s0, s1 = _add_block(val, 4 * p, xg[k], xg[k + 1], s0, s1)
+    return s0, s1
+
+
+@numba.njit(cache=True)
+def preload(rows, special, u, ug, g, sp_ku):
+    """``g = K u`` at the preloaded special nodes (before the interface adds its
+    forces), and a copy in ``sp_ku`` (float64[2 n_special], by special index)
+    for the energy; ``ug`` the gathered off-rank displacements, if a row needs them."""
+    ptr, col, val = rows
+    sp_node, _, _, sp_preloaded = special
+    n = ptr.size - 1
+    for k in range(sp_preloaded.size):
+        if sp_preloaded[k]:
+            I = sp_node[k]
+            s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
+            g[2 * I] = s0
+            g[2 * I + 1] = s1
+            sp_ku[2 * k] = s0
+            sp_ku[2 * k + 1] = s1
+
+
+@numba.njit(cache=True)
+def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev):
+    """Update the special node ``I`` (its index ``k`` in the special arrays) from
+    ``s = (K u)_I``; returns the work of the step's load on it [J/m].
+
+    On the struck edge either u1 is prescribed (``edge`` masses; U(t^n),
+    U(t^{n+1}), v_bc) or, when the edge's force coefficients are not empty, a
+    traction acts: the force ``force · sv − damp · v^n`` with v^n = (v^{n−½} +
+    v^{n+½})/2, taken implicitly in v^{n+½}."""
+    _, sp_impact, _, sp_preloaded = special
+    imp_mass, imp_force, imp_damp = edge
+    dt, u0, u1, v_bc, sv = load
+    i = 2 * I
+    if sp_preloaded[k]:
+        f0 = g[i]  # (K u) + forces, summed as the two-pass step does
+        f1 = g[i + 1]
+        g[i] = 0.0  # ready for the next step
+        g[i + 1] = 0.0
+    else:
+        f0 = s0
+        f1 = s1
+    work = 0.0
+    q = sp_impact[k]
+    if q >= 0 and imp_force.size:
+        c = dt_minv[I]
+        a = 0.5 * c * imp_damp[q]
+        v_old = v[i]
+        v[i] = (v_old * (1.0 - a) - c * (f0 - imp_force[q] * sv)) / (1.0 + a)
+        unew[i] = u[i] + dt * v[i]
+        load_q = imp_force[q] * sv - imp_damp[q] * 0.5 * (v_old + v[i])
+        work = load_q * (0.5 * (unew[i] - imp_prev[q]))
+        imp_prev[q] = u[i]
+    elif q >= 0:
+        # prescribed u1 = U(t^{n+1}), v1 = (U(t^{n+1}) − U(t^n))/dt; reaction R^n = M a^n + f^n
+        react = imp_mass[q] * (v_bc - v[i]) / dt + f0
+        work = react * (0.5 * (u1 - imp_prev[q]))
+        imp_prev[q] = u0
+        v[i] = v_bc
+        unew[i] = u1
+    else:
+        v[i] -= dt_minv[I] * f0
+        unew[i] = u[i] + dt * v[i]
+    v[i + 1] -= dt_minv[I] * f1
+    unew[i + 1] = u[i + 1] + dt * v[i + 1]
+    return work
+
+
+@numba.njit(inline="always", cache=True)
+def _wake_neighbours(ptr, col, act, n, I):
+    """Row ``I`` holds a nonzero displacement from now on: its owned neighbours
+    are computed from the next step on (or from this one, if still to come)."""
+    for p in range(ptr[I], ptr[I + 1]):
+        J = col[p]
+        if J < n and act[J] == QUIET:
+            act[J] = ACTIVE
+    act[I] = SPREAD
+
+
+@numba.njit(cache=True)
+def sweep(rows, special, edge, load, u, unew, v, dt_minv, g, imp_prev, act):
+    """One pass over the owned block rows, the deferred special rows excepted.
+
+    u         float64[2 n]    u^n (read)                        [m]
+    unew      float64[2 n]    u^{n+1} (written)                 [m]
+    v         float64[2 n]    v^{n−½} in, v^{n+½} out           [m/s]
+    dt_minv   float64[n]      dt / lumped mass of each node     [s m/kg]
+    g         float64[2 n]    K u + interface forces at the preloaded rows, zero
+                              elsewhere; zero again on return   [N/m]
+    imp_prev  float64[n_imp]  u^{n−1} of the struck dofs, set to u^n = U(t^n) [m]
+    act       int8[n]         activity of each row (QUIET rows are skipped), updated
+
+    Returns (u^n · K u^n over the swept rows [J/m, twice the strain energy],
+    reaction work over the step [J/m]).
+    """
+    ptr, col, val = rows
+    sp_node, _, sp_deferred, _ = special
+    dt = load[0]
+    n = ptr.size - 1
+    k = 0
+    nxt = sp_node[0]
+    uku = 0.0
+    work = 0.0
+    for I in range(n):
+        i = 2 * I
+        if I == nxt:
+            kk = k
+            k += 1
+            nxt = sp_node[k]
+            if sp_deferred[kk]:
+                continue  # in sweep_deferred, once the messages are in
+            s0, s1 = _row(ptr, col, val, u, I)
+            uku += u[i] * s0 + u[i + 1] * s1
+            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev)
+            if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+                _wake_neighbours(ptr, col, act, n, I)
+            continue
+        state = act[I]
+        if state == QUIET:
+            continue  # u = v = 0 here and at the neighbours: the update is exactly zero
+        s0, s1 = _row(ptr, col, val, u, I)
+        uku += u[i] * s0 + u[i + 1] * s1
+        c = dt_minv[I]
+        v[i] -= c * s0
+        unew[i] = u[i] + dt * v[i]
+        v[i + 1] -= c * s1
+        unew[i + 1] = u[i + 1] + dt * v[i + 1]
+        if state == ACTIVE and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+            _wake_neighbours(ptr, col, act, n, I)
+    return uku, work
+
+
+@numba.njit(cache=True)
+def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, g, imp_prev, act, sp_ku):
+    """The deferred special rows (interface, MPI boundary), ``ug`` holding the
+    gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
+    ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
+    ptr, col, val = rows
+    sp_node, _, sp_deferred, sp_preloaded = special
+    n = ptr.size - 1
+    uku = 0.0
+    work = 0.0
+    for kk in range(sp_deferred.size):
+        if not sp_deferred[kk]:
+            continue
+        I = sp_node[kk]
+        i = 2 * I
+        if sp_preloaded[kk]:
+            s0 = sp_ku[2 * kk]
+            s1 = sp_ku[2 * kk + 1]
+        else:
+            s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
+        uku += u[i] * s0 + u[i + 1] * s1
+        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev)
+        if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+            _wake_neighbours(ptr, col, act, n, I)
+    return uku, work

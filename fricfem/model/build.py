@@ -1,0 +1,143 @@
+"""Everything a run assembles once, in one record (:class:`Model`), from a scene
+or from its parts.
+
+    scene ─► mesh (model.mesh) ─► K, lumped mass (model.assembly)
+                                ─► interface geometry and points (model.interface)
+                                ─► struck edge (Impact) ─► λmax, dt ─► the fused step
+
+The model holds no state of a run: that is :class:`fricfem.step.state.State`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from petsc4py import PETSc
+
+from .. import friction
+from ..step.fused import FusedBulk
+from ..step.interface import Interface
+from . import interface as iface_mod
+from . import mesh as mesh_mod
+from .assembly import (_per_point, edge_weights, function_space, impact_dofs, lumped_mass, max_eigenvalue,
+                       round_down, stiffness)
+from .loading import ImpactPulse
+from .material import Material
+
+
+class Impact(NamedTuple):
+    """The load on the struck edge (:mod:`fricfem.model.loading`).
+
+    dofs   int32[n]    owned local indices (into the PETSc arrays) of the x1 dofs
+    mass   float64[n]  their lumped masses [kg/m]
+    pulse  ImpactPulse
+    force  float64[n]  for a traction load (``pulse.kind`` not "velocity"): the
+                       nodal force is ``force · sign · V(t) − damp · v1``, with
+                       force = A Z_f and damp = A Z_d [N·s/m², per m thickness],
+                       A = ∫ N_i ds over the edge; zeros for a prescribed velocity
+    damp   float64[n]
+    """
+
+    dofs: np.ndarray
+    mass: np.ndarray
+    pulse: ImpactPulse
+    force: np.ndarray = np.zeros(0)
+    damp: np.ndarray = np.zeros(0)
+
+
+class Model(NamedTuple):
+    """Everything assembled once for a run (no run state)."""
+
+    V: object  # dolfinx FunctionSpace (P1 vector)
+    K: PETSc.Mat
+    mass: np.ndarray  # lumped mass, owned dofs [kg/m]
+    dt_minv: np.ndarray  # dt / mass
+    impact: Impact
+    interface: Interface
+    material: Material
+    dt: float  # time step [s]
+    dt_crit: float  # 2/√λmax [s]
+    comm: object
+    bulk: FusedBulk  # the one-pass step
+
+
+def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
+          Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
+          dt_safety: float = 0.9, dt: float | None = None) -> Model:
+    """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.model.mesh.PlateMesh`).
+    Collective.
+
+    law       a :class:`fricfem.friction.Law`
+    params    packed law parameters: float64[n_params], or a callable x1 -> float64[n, n_params]
+    sigma0    initial compression Σ0 [Pa] (T_n = Σ0 on the interface at t <= 0)
+    Cn, Cs    interface stiffnesses [Pa/m] (scalars or callables of x1)
+    tau0      initial shear traction on the interface [Pa] (scalar or callable of x1)
+    impact_tags  edges carrying the impact (none: the edge is free)
+    dt        fixed step [s]; default ``dt_safety · 2/√λmax``, rounded down to 3 digits
+    """
+    comm = pm.mesh.comm
+    V = function_space(pm.mesh)
+    K = stiffness(V, material)
+    mass = lumped_mass(V, material.rho)
+    geom = iface_mod.build_geometry(V, pm.facet_tags, K.createVecRight())
+    x1 = geom.x1
+    points = iface_mod.make_points(
+        law, _per_point(params, x1, len(law.params)), len(x1), sigma0,
+        _per_point(tau0, x1), _per_point(Cn, x1), _per_point(Cs, x1),
+    )
+    interface = Interface(geom, points, law)
+    dofs = impact_dofs(V, pm.facet_tags, impact_tags)
+    impact = Impact(dofs, mass[dofs].copy(), pulse, np.zeros(len(dofs)), np.zeros(len(dofs)))
+    if not pulse.prescribed and len(impact_tags):
+        area = edge_weights(V, pm.facet_tags, impact_tags, dofs)
+        z_force, z_damp = pulse.impedances(material.rho * material.c_l)
+        impact = impact._replace(force=z_force * area, damp=z_damp * area)
+    lam = max_eigenvalue(K, mass, interface, V)
+    dt_crit = 2.0 / math.sqrt(lam)
+    if dt is None:
+        dt = round_down(dt_safety * dt_crit)
+    bulk = FusedBulk(K, dt / mass, dt, interface, impact)
+    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk)
+
+
+def impact_tags(scene) -> tuple:
+    """The edges a scene strikes: none without an impact (a rupture problem: the
+    edge is free), the lower plate's, or both plates' (symmetric loading)."""
+    if scene.pulse.v_imp == 0:
+        return ()
+    return ("impact_lower", "impact_upper") if scene.symmetric else ("impact_lower",)
+
+
+def point_params(scene, x1) -> np.ndarray:
+    """Packed friction parameters per interface point, float64[n, n_params]:
+    the scene's, with each ``friction.regions`` entry applied where
+    x1_min <= x1 <= x1_max (later regions win where they overlap)."""
+    law = friction.get_law(scene.law)
+    out = np.tile(friction.pack(law, scene.params), (len(x1), 1))
+    for reg in scene.regions:
+        sel = (x1 >= reg["x1_min"]) & (x1 <= reg["x1_max"])
+        out[sel] = friction.pack(law, {**scene.params, **reg.get("params", {})})
+    return out
+
+
+def point_tau0(scene, x1) -> np.ndarray:
+    """Initial shear traction per interface point [Pa]: uniform ``interface.tau0``,
+    then each ``interface.patches`` entry where x1_min <= x1 <= x1_max."""
+    out = np.full(len(x1), scene.tau0)
+    for p in scene.tau0_patches:
+        out[(x1 >= p["x1_min"]) & (x1 <= p["x1_max"])] = p.get("tau0", scene.tau0)
+    return out
+
+
+def build_model(scene, comm):
+    """Mesh and model of a validated scene (:class:`fricfem.scene.Scene`); collective.
+    Returns ``(plate mesh, model)``."""
+    pm = mesh_mod.build(scene.mesh, comm)
+    model = build(
+        pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
+        scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
+        dt_safety=scene.dt_safety, dt=scene.dt,
+    )
+    return pm, model

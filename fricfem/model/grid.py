@@ -1,0 +1,211 @@
+"""The two-plate grid in numpy: node coordinates, crossed triangles, named edges.
+
+A lower plate ``0 < x1 < length, -height < x2 < 0`` and an upper plate
+``0 < x1 < length, 0 < x2 < height`` (a :class:`fricfem.model.mesh.MeshSpec`),
+meshed separately so that the interface ``x2 = 0`` carries two coincident node
+rows (``interface_lower`` and ``interface_upper``).  Each plate is a tensor
+grid of quadrilaterals, uniform (``dx × dy``) in a fine region ``fine_x0 ≤ x1
+≤ fine_x1``, ``|x2| ≤ fine_height`` and geometrically graded outside it; every
+quadrilateral is split into four linear triangles through its centre node
+("crossed triangles", as in the paper's finite element code).  Grid lines lie
+exactly on ``x2 = ±impact_b`` so the struck segment of the edge ``x1 = 0`` is
+exact.  No dolfinx here: :mod:`fricfem.model.mesh` distributes the grid.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+#: Physical-group ids by name (cells: plates; facets: edges).
+TAGS = {
+    "lower": 1,
+    "upper": 2,
+    "interface_lower": 11,
+    "interface_upper": 12,
+    "impact_lower": 21,
+    "impact_upper": 22,
+    "outer": 30,
+}
+
+
+def axis_nodes(length, fine, h, ratio, hmax, breaks) -> np.ndarray:
+    """Node coordinates on ``[0, length]``: spacing ``h`` inside ``fine = (a, b)``,
+    growing geometrically by ``ratio`` per cell away from it (capped at ``hmax``),
+    with nodes exactly at ``a``, ``b`` and every point of ``breaks``.
+
+    Geometric growth of cell sizes means the target size grows linearly with the
+    distance ``d`` from the fine interval, ``s(d) = min(hmax, h + (ratio - 1) d)``.
+    Each piece between break points gets ``round(∫ dx / s)`` cells, placed at
+    equal increments of that integral, so the fine region is exactly uniform.
+    """
+    a, b = fine
+    pts = sorted({0.0, float(length), float(a), float(b), *(float(x) for x in breaks if 0 < x < length)})
+    nodes = [np.array([0.0])]
+    for p, q in zip(pts[:-1], pts[1:]):
+        if a <= p and q <= b:  # inside the fine region: exactly uniform
+            n = max(1, int(round((q - p) / h)))
+            nodes.append(np.linspace(p, q, n + 1)[1:])
+            continue
+        # cumulative cell count N(x) = ∫ dx / s(x) on a fine sampling of [p, q]
+        xs = np.linspace(p, q, 4001)
+        d = np.where(xs < a, a - xs, np.where(xs > b, xs - b, 0.0))
+        s = np.minimum(hmax, h + (ratio - 1.0) * d)
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (1 / s[1:] + 1 / s[:-1]) * np.diff(xs))])
+        n = max(1, int(round(cum[-1])))
+        nodes.append(np.interp(np.linspace(0.0, cum[-1], n + 1)[1:], cum, xs))
+    x = np.concatenate(nodes)
+    x[-1] = length
+    return x
+
+
+class PlateGrid(NamedTuple):
+    """Crossed-triangle grid of one plate (numpy, no dolfinx).
+
+    x       float64[n_nodes, 2]  node coordinates [m] (corners first, then centres)
+    cells   int64[n_cells, 3]    triangles, counter-clockwise
+    edges   dict name -> int64[n, 2]  boundary edges by tag name
+    """
+
+    x: np.ndarray
+    cells: np.ndarray
+    edges: dict
+
+
+def plate_grid(spec, upper: bool) -> PlateGrid:
+    """Build one plate's crossed-triangle grid and its named boundary edges."""
+    xs = axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
+    ys = axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size, (spec.impact_b,))
+    if not upper:
+        ys = -ys[::-1]  # lower plate: x2 from -height up to 0
+    nx, ny = len(xs) - 1, len(ys) - 1
+    X, Y = np.meshgrid(xs, ys, indexing="xy")  # [ny+1, nx+1]
+    corners = np.column_stack([X.ravel(), Y.ravel()])
+    cx = 0.5 * (xs[:-1] + xs[1:])
+    cy = 0.5 * (ys[:-1] + ys[1:])
+    CX, CY = np.meshgrid(cx, cy, indexing="xy")
+    centres = np.column_stack([CX.ravel(), CY.ravel()])
+    x = np.vstack([corners, centres])
+
+    def vid(i, j):  # corner (i along x1, j along x2)
+        return j * (nx + 1) + i
+
+    I, J = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
+    I, J = I.ravel(), J.ravel()
+    a, b, c, d = vid(I, J), vid(I + 1, J), vid(I + 1, J + 1), vid(I, J + 1)
+    e = (nx + 1) * (ny + 1) + J * nx + I
+    cells = np.vstack(
+        [np.column_stack(t) for t in ((a, b, e), (b, c, e), (c, d, e), (d, a, e))]
+    ).astype(np.int64)
+
+    i = np.arange(nx)
+    j = np.arange(ny)
+    bottom = np.column_stack([vid(i, 0), vid(i + 1, 0)])
+    top = np.column_stack([vid(i, ny), vid(i + 1, ny)])
+    left = np.column_stack([vid(0, j), vid(0, j + 1)])
+    right = np.column_stack([vid(nx, j), vid(nx, j + 1)])
+    interface, far = (bottom, top) if upper else (top, bottom)
+    ymid = 0.5 * (ys[j] + ys[j + 1])
+    hit = np.abs(ymid) <= spec.impact_b
+    name = "upper" if upper else "lower"
+    edges = {
+        f"interface_{name}": interface,
+        f"impact_{name}": left[hit],
+        "outer": np.vstack([far, right, left[~hit]]),
+    }
+    return PlateGrid(x, cells, edges)
+
+
+def grid_arrays(spec) -> tuple:
+    """Both plates as one grid, lower plate first (numpy, no dolfinx).
+
+    Returns (x float64[n_nodes, 2], cells int64[n_cells, 3], cell_tags
+    int32[n_cells], facets int64[n_facets, 2], facet_tags int32[n_facets]);
+    facets are grouped by tag in increasing tag order, lower plate before
+    upper within a tag (the order a gmsh model of the grid is read back in).
+    """
+    lo, up = plate_grid(spec, False), plate_grid(spec, True)
+    off = len(lo.x)
+    x = np.vstack([lo.x, up.x])
+    cells = np.vstack([lo.cells, up.cells + off])
+    cell_tags = np.concatenate([np.full(len(lo.cells), TAGS["lower"]), np.full(len(up.cells), TAGS["upper"])])
+    facets, facet_tags = [], []
+    for name in sorted({*lo.edges, *up.edges}, key=lambda n: TAGS[n]):
+        for g, shift in ((lo, 0), (up, off)):
+            e = g.edges.get(name)
+            if e is not None and len(e):
+                facets.append(e + shift)
+                facet_tags.append(np.full(len(e), TAGS[name]))
+    return (x, cells.astype(np.int64), cell_tags.astype(np.int32), np.vstack(facets).astype(np.int64),
+            np.concatenate(facet_tags).astype(np.int32))
+
+
+def bisection_parts(centroids: np.ndarray, nparts: int) -> np.ndarray:
+    """int32[n]: a part per point by recursive coordinate bisection.
+
+    Each set is cut across its longer extent so that the two halves hold
+    cell counts in the ratio of the parts they get; ties are broken by the
+    point's index, so the result depends on nothing but the points.  On the
+    two-plate grid two parts are the two plates (the cut lies between them).
+    """
+    parts = np.zeros(len(centroids), dtype=np.int32)
+
+    def split(ids, first, n):
+        if n == 1 or len(ids) == 0:
+            parts[ids] = first
+            return
+        c = centroids[ids]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        order = ids[np.lexsort((ids, c[:, axis]))]
+        n1 = n // 2
+        k = int(round(len(ids) * n1 / n))
+        split(order[:k], first, n1)
+        split(order[k:], first + n1, n - n1)
+
+    split(np.arange(len(centroids)), 0, nparts)
+    return parts
+
+
+def write_msh(spec, path: str) -> None:
+    """Write the two-plate grid as a gmsh model (.msh) with physical groups named after :data:`TAGS`."""
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("fricfem_plates")
+        offset = 0
+        entity = 0
+        groups: dict[str, list] = {}
+        for upper in (False, True):
+            g = plate_grid(spec, upper)
+            tags = np.arange(1, len(g.x) + 1, dtype=np.uint64) + offset
+            entity += 1
+            surf = gmsh.model.addDiscreteEntity(2, entity)
+            gmsh.model.mesh.addNodes(2, surf, tags, np.column_stack([g.x, np.zeros(len(g.x))]).ravel())
+            gmsh.model.mesh.addElementsByType(surf, 2, [], (g.cells + 1 + offset).ravel())
+            groups.setdefault("upper" if upper else "lower", []).append((2, surf))
+            for name, edges in g.edges.items():
+                if len(edges) == 0:
+                    continue
+                entity += 1
+                curve = gmsh.model.addDiscreteEntity(1, entity)
+                gmsh.model.mesh.addElementsByType(curve, 1, [], (edges + 1 + offset).ravel())
+                groups.setdefault(name, []).append((1, curve))
+            offset += len(g.x)
+        for name, ents in groups.items():
+            dim = ents[0][0]
+            gmsh.model.addPhysicalGroup(dim, [t for _, t in ents], TAGS[name])
+            gmsh.model.setPhysicalName(dim, TAGS[name], name)
+        gmsh.write(path)
+    finally:
+        gmsh.finalize()
+
+
+def estimate_quads(spec) -> float:
+    """Number of quadrilaterals of both plates (without building the grid)."""
+    nx = len(axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ()))
+    ny = len(axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size,
+                        (spec.impact_b,)))
+    return 2.0 * (nx - 1) * (ny - 1)

@@ -1,0 +1,216 @@
+"""The frictional interface as data: pairing across x2 = 0, Gauss points, the exchange, the points.
+
+Povirk & Needleman (1993) elastic–frictional interface, as used by Coker et al.:
+with Δu = u⁺ − u⁻ (upper minus lower plate) between initially coincident
+points, n = x2 and s = x1,
+
+    T_n = Σ0 − C_n Δu_n                       (compression positive; open if T_n < 0:
+                                               then T_n = T_s = 0)
+    Ṫ_s = C_s [Δu̇_s − sgn(T_s) Δu̇_slip]      (Δu̇_slip from the friction law)
+
+evaluated at 4 Gauss points on every interface segment (the paper's "four
+point Gaussian integration along the interface").  The bulk solves for
+displacement increments from the uniformly compressed state, so the nodal
+forces carry the traction increments: the lower plate receives
+(T_s − T_s0) e1 − (T_n − T_n0) e2 and the upper plate the opposite.
+
+MPI.  The plates are meshed separately, so the two nodes of a pair are never
+neighbours in the dolfinx mesh and (dolfinx's partitioner puts one plate on each
+of two ranks) usually live on different ranks.  Segments are dealt out to ranks
+in blocks, round-robin along x1 (each rank gets a share of the sliding region);
+each rank gathers the displacements of the nodes
+its segments touch with one PETSc scatter, runs the kernel, and adds the nodal
+forces back with the reverse scatter.  No ghosts are involved.
+
+Here: the geometry (:func:`build_geometry`) and the per-point data
+(:class:`Points`, :func:`make_points`); the numba loop over the points is
+:mod:`fricfem.kernels.interface`, the verbs of the time loop
+:class:`fricfem.step.interface.Interface`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..friction.base import storage
+from .grid import TAGS
+
+#: Segments are dealt to ranks in blocks of this many, round-robin along x1.
+SEG_BLOCK = 8
+
+#: Gauss–Legendre points and weights on [-1, 1], 4 points.
+GAUSS_XI, GAUSS_W = np.polynomial.legendre.leggauss(4)
+
+
+class Geometry(NamedTuple):
+    """Interface geometry seen by one rank.
+
+    x1_nodes  float64[n_nodes]   x1 of every interface node pair, sorted (all ranks) [m]
+    segments  int64[n_seg]       this rank's segments (global indices, increasing)
+    x1        float64[n_pts]     x1 of this rank's Gauss points [m]
+    wq        float64[n_pts]     Gauss weight × half segment length [m]
+    shape     float64[4, 2]      linear shape functions at the Gauss points
+    seg_w     int32[n_seg, 4]    offsets into the gathered work vector of the x1
+                                 component of (lower a, lower b, upper a, upper b);
+                                 the x2 component is the next entry
+    scatter   PETSc.Scatter      global displacement → work vector
+    work      PETSc.Vec          sequential, gathered displacements
+    force     PETSc.Vec          sequential, nodal forces before the reverse scatter
+    comm      MPI communicator of the mesh
+    """
+
+    x1_nodes: np.ndarray
+    segments: np.ndarray
+    x1: np.ndarray
+    wq: np.ndarray
+    shape: np.ndarray
+    seg_w: np.ndarray
+    scatter: object
+    work: object
+    force: object
+    comm: object
+
+
+def _owned_nodes(V, facet_tags, name):
+    """(x1, x2, global block index) of the owned dof nodes on the facets tagged ``name``."""
+    msh = V.mesh
+    facets = facet_tags.indices[facet_tags.values == TAGS[name]]
+    from dolfinx import fem
+
+    blocks = fem.locate_dofs_topological(V, msh.topology.dim - 1, facets)
+    imap = V.dofmap.index_map
+    blocks = blocks[blocks < imap.size_local]
+    x = V.tabulate_dof_coordinates()[blocks]
+    glob = imap.local_to_global(blocks.astype(np.int32))
+    return x[:, 0], x[:, 1], glob
+
+
+def build_geometry(V, facet_tags, template: PETSc.Vec) -> Geometry:
+    """Pair the interface nodes across ranks and set up the exchange.
+
+    ``template`` is a vector with the layout of the global displacement.
+    """
+    comm = V.mesh.comm
+    bs = V.dofmap.index_map_bs
+    sides = {}
+    for side in ("lower", "upper"):
+        x1, x2, glob = _owned_nodes(V, facet_tags, f"interface_{side}")
+        data = comm.allgather(np.column_stack([x1, x2, glob.astype(np.float64)]))
+        data = np.vstack(data)
+        data = data[np.argsort(data[:, 0], kind="stable")]
+        sides[side] = data
+    lo, up = sides["lower"], sides["upper"]
+    if len(lo) < 2 or len(lo) != len(up):
+        raise RuntimeError(
+            f"interface: {len(lo)} lower and {len(up)} upper nodes; the mesh needs matching "
+            "interface node rows on both plates"
+        )
+    scale = max(1.0, float(np.abs(lo[:, 0]).max()))
+    if np.abs(lo[:, 0] - up[:, 0]).max() > 1e-9 * scale or np.abs(lo[:, 1]).max() > 1e-9 * scale:
+        raise RuntimeError("interface: lower and upper interface nodes do not coincide pairwise")
+    x1n = lo[:, 0].copy()
+    g_lo = lo[:, 2].astype(np.int64)
+    g_up = up[:, 2].astype(np.int64)
+
+    # deal segments out in blocks of SEG_BLOCK, round-robin along x1, so that every
+    # rank gets a share of the sliding region near the struck edge (load balance)
+    nseg = len(x1n) - 1
+    segs = np.flatnonzero((np.arange(nseg) // SEG_BLOCK) % comm.size == comm.rank)
+    nodes = np.unique(np.concatenate([segs, segs + 1]))
+    # gathered work vector: [lower nodes, upper nodes], 2 comps each
+    gnodes = np.concatenate([g_lo[nodes], g_up[nodes]])
+    gidx = (bs * gnodes[:, None] + np.arange(bs)[None, :]).ravel().astype(PETSc.IntType)
+    n_loc = len(nodes)
+    a = np.searchsorted(nodes, segs)
+    b = np.searchsorted(nodes, segs + 1)
+    seg_w = np.column_stack([a, b, n_loc + a, n_loc + b]).astype(np.int32) * bs
+
+    work = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
+    force = work.duplicate()
+    is_from = PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF)
+    scatter = PETSc.Scatter().create(template, is_from, work, None)
+
+    shape = np.column_stack([0.5 * (1 - GAUSS_XI), 0.5 * (1 + GAUSS_XI)])
+    xa, xb = x1n[segs], x1n[segs + 1]
+    half = 0.5 * (xb - xa)
+    x1 = (0.5 * (xa + xb)[:, None] + half[:, None] * GAUSS_XI[None, :]).ravel()
+    wq = (half[:, None] * GAUSS_W[None, :]).ravel()
+    return Geometry(x1n, segs, x1, wq, shape, seg_w, scatter, work, force, comm)
+
+
+class Points(NamedTuple):
+    """Per-Gauss-point interface data on this rank (SI units; all float64[n] unless noted).
+
+    Tn0, Ts0      initial normal / shear traction [Pa] (Σ0 and the initial shear)
+    Cn, Cs        interface stiffnesses [Pa/m]
+    param_rows    float64[k, n_params]  the distinct friction-law parameter sets
+    param_index   int32[n]  the point's row in ``param_rows`` (``params``: the
+                  point's own parameters, float64[n, n_params]; one row for all
+                  points of a uniform interface keeps the kernel's data small)
+    state         float64[n, n_state + memo]   friction-law state, then the law's memo
+    Tn, Ts        current tractions [Pa]
+    dTs           change of T_s over the last step, Ṫ_s dt [Pa]
+    jump_n, jump_s  current jumps Δu_n, Δu_s [m]
+    rate_n, rate_s  jump rates over the last step [m/s]
+    slip          accumulated frictional slip Δu_slip [m]
+    slip_rate     Δu̇_slip [m/s] (>= 0)
+    work          work done on the interface by the bulk since t = 0 [J/m²]
+    dissipated    frictional work since t = 0 [J/m²]
+    is_open       int8: 1 where the interface is open
+    nsub          int32: local sub-steps the law took in the last step
+    """
+
+    Tn0: np.ndarray
+    Ts0: np.ndarray
+    Cn: np.ndarray
+    Cs: np.ndarray
+    param_rows: np.ndarray
+    param_index: np.ndarray
+    state: np.ndarray
+    Tn: np.ndarray
+    Ts: np.ndarray
+    dTs: np.ndarray
+    jump_n: np.ndarray
+    jump_s: np.ndarray
+    rate_n: np.ndarray
+    rate_s: np.ndarray
+    slip: np.ndarray
+    slip_rate: np.ndarray
+    work: np.ndarray
+    dissipated: np.ndarray
+    is_open: np.ndarray
+    nsub: np.ndarray
+
+    @property
+    def params(self) -> np.ndarray:
+        """float64[n, n_params]: each point's friction-law parameters."""
+        return self.param_rows[self.param_index]
+
+    def kernel_const(self) -> tuple:
+        """The constant part as the kernel's plain tuple (:mod:`fricfem.kernels.interface`)."""
+        return tuple(self[:6])
+
+    def kernel_state(self) -> tuple:
+        """The evolving part (state .. nsub) as the kernel's plain tuple of the same arrays."""
+        return tuple(self[6:])
+
+
+def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
+    """Initial interface points: ``params`` float64[n, n_params] (packed per point);
+    ``Tn0``, ``Ts0``, ``Cn``, ``Cs`` scalars or float64[n]."""
+    full = lambda v: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()  # noqa: E731
+    Tn0, Ts0, Cn, Cs = full(Tn0), full(Ts0), full(Cn), full(Cs)
+    params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
+    rows, index = np.unique(params, axis=0, return_inverse=True)
+    state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
+    for q in range(n):  # once, at set-up
+        state[q] = storage(law, law.initial_state(params[q], Tn0[q], Ts0[q]))
+    z = lambda: np.zeros(n)  # noqa: E731
+    return Points(
+        Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state,
+        Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
+        np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
+    )

@@ -1,0 +1,172 @@
+"""Two-plate meshes: the definition (:class:`MeshSpec`, presets in ``meshes/``)
+and the distributed dolfinx mesh built from it (:func:`build`).
+
+The grid itself is numpy (:mod:`fricfem.model.grid`); this module hands it to
+dolfinx with a deterministic partition and tags its edges by name
+(:data:`fricfem.model.grid.TAGS`), the only way code refers to boundaries.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import tomllib
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..keys import field
+from .grid import TAGS, bisection_parts, grid_arrays, write_msh
+
+#: The folder of mesh definitions (``meshes/`` at the top of the repository).
+MESH_DIR = Path(__file__).resolve().parents[2] / "meshes"
+
+
+@dataclasses.dataclass(frozen=True)
+class MeshSpec:
+    """A two-plate mesh; lengths in metres (the geometry: :mod:`fricfem.model.grid`)."""
+
+    length: float = field(0.137, "m", 0.0, 10.0, "plate length along the interface (x1)", open_low=True)
+    height: float = field(0.075, "m", 0.0, 10.0, "height of EACH plate (x2); the specimen is twice as tall",
+                          open_low=True)
+    dx: float = field(0.30e-3, "m", 0.0, 1.0, "cell size along x1 in the fine region", open_low=True)
+    dy: float = field(0.20e-3, "m", 0.0, 1.0, "cell size along x2 in the fine region", open_low=True)
+    fine_x0: float = field(0.0, "m", 0.0, 10.0, "fine region start along x1")
+    fine_x1: float = field(0.060, "m", 0.0, 10.0, "fine region end along x1", open_low=True)
+    fine_height: float = field(2.0e-3, "m", 0.0, 10.0, "fine region extent above and below the interface",
+                               open_low=True)
+    impact_b: float = field(0.025, "m", 0.0, 10.0, "struck edge segment x1 = 0, |x2| <= b", open_low=True)
+    grading: float = field(1.15, "", 1.0, 2.0, "cell-size growth ratio outside the fine region")
+    max_size: float = field(5.0e-3, "m", 0.0, 10.0, "largest cell size", open_low=True)
+
+
+def preset_names() -> tuple:
+    """Names of the mesh definitions in ``meshes/``."""
+    return tuple(sorted(p.stem for p in MESH_DIR.glob("*.toml")))
+
+
+@functools.lru_cache(maxsize=None)
+def _read(path: str) -> MeshSpec:
+    with open(path, "rb") as fh:
+        table = tomllib.load(fh)
+    known = {f.name for f in dataclasses.fields(MeshSpec)}
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise ValueError(f"mesh file {path!r}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(known))}")
+    return MeshSpec(**{k: float(v) for k, v in table.items()})
+
+
+def preset(ref: str) -> MeshSpec:
+    """The mesh named ``ref`` in ``meshes/``, or the mesh file at the path ``ref`` (a .toml)."""
+    path = Path(ref) if str(ref).endswith(".toml") else MESH_DIR / f"{ref}.toml"
+    if not path.is_file():
+        raise ValueError(f"mesh.preset = {str(ref)!r}: no such mesh; allowed: {', '.join(preset_names())} "
+                         "or a path to a .toml mesh file")
+    try:
+        return _read(str(path.resolve()))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise ValueError(f"mesh.preset = {str(ref)!r}: cannot read {str(path)!r}: {err}") from None
+
+
+def _partitioner(centroids: np.ndarray):
+    """A dolfinx cell partitioner that deals the cells by :func:`bisection_parts`
+    (all cells are on the calling communicator's rank 0 when it runs), with
+    ghosts on the parts that hold a facet neighbour when ghosting is asked for.
+    The partition, hence every result, is the same from one run to the next."""
+    import dolfinx.cpp as cpp
+
+    def part(comm, nparts, graph, ghosting):
+        n = len(graph.offsets) - 1
+        if n == 0:
+            return cpp.graph.AdjacencyList_int32(np.zeros(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
+        if n != len(centroids):
+            raise RuntimeError(f"mesh: the partitioner got {n} cells, expected {len(centroids)} on one rank")
+        owner = bisection_parts(centroids, nparts)
+        if not ghosting:
+            return cpp.graph.AdjacencyList_int32(owner, np.arange(n + 1, dtype=np.int32))
+        adj, off = np.asarray(graph.array), np.asarray(graph.offsets)
+        dest = [[int(o), *sorted(set(owner[adj[off[i]:off[i + 1]]].tolist()) - {int(o)})]
+                for i, o in enumerate(owner)]
+        counts = np.array([len(d) for d in dest], dtype=np.int32)
+        return cpp.graph.AdjacencyList_int32(np.concatenate(dest).astype(np.int32),
+                                             np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
+
+    return cpp.mesh.create_cell_partitioner(part)
+
+
+class PlateMesh(NamedTuple):
+    """A distributed two-plate mesh and its tags."""
+
+    mesh: object  # dolfinx.mesh.Mesh
+    cell_tags: object  # dolfinx MeshTags on cells (plates)
+    facet_tags: object  # dolfinx MeshTags on facets (edges), ids from TAGS
+    spec: MeshSpec
+
+
+def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
+    """Build the two-plate mesh on rank 0 and distribute it over ``comm``
+    (collective); the partition is deterministic (:func:`bisection_parts`).
+
+    ``msh_file``: also write the grid there as a gmsh model (rank 0).
+    """
+    import dolfinx.cpp as cpp
+    import dolfinx.mesh as dmesh
+    from dolfinx.io import gmshio
+
+    if comm.rank == 0:
+        x, cells, cell_tags, facets, facet_tags = grid_arrays(spec)
+        centroids = x[cells].mean(axis=1)
+        if msh_file:
+            write_msh(spec, msh_file)
+    else:
+        x, cells, centroids = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 2))
+        cell_tags, facets, facet_tags = (np.zeros(0, dtype=np.int32), np.zeros((0, 2), dtype=np.int64),
+                                         np.zeros(0, dtype=np.int32))
+    msh = dmesh.create_mesh(comm, cells, x, gmshio.ufl_mesh(2, 2), partitioner=_partitioner(centroids))
+    tdim = msh.topology.dim
+    ents, vals = cpp.io.distribute_entity_data(msh._mesh, tdim, cells, cell_tags)
+    msh.topology.create_connectivity(tdim, 0)
+    ct = dmesh.meshtags_from_entities(msh, tdim, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+    ct.name = "Cell tags"
+    ents, vals = cpp.io.distribute_entity_data(msh._mesh, tdim - 1, facets, facet_tags)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    ft = dmesh.meshtags_from_entities(msh, tdim - 1, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+    ft.name = "Facet tags"
+    msh.topology.create_connectivity(1, 2)
+    return PlateMesh(msh, ct, ft, spec)
+
+
+def info(pm: PlateMesh) -> dict:
+    """Global sizes of a built mesh (collective)."""
+    from mpi4py import MPI
+
+    msh = pm.mesh
+    comm = msh.comm
+    tdim = msh.topology.dim
+    imap_c = msh.topology.index_map(tdim)
+    imap_v = msh.topology.index_map(0)
+    x = msh.geometry.x[:, :2]
+    cells = msh.geometry.dofmap.array.reshape(-1, 3)[: imap_c.size_local]
+    p = x[cells]
+    e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
+    area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+    longest = np.linalg.norm(e, axis=2).max(axis=1)
+    alt = comm.allreduce(float((2 * area / longest).min()) if len(area) else np.inf, op=MPI.MIN)
+    ft = pm.facet_tags
+    imap_f = msh.topology.index_map(tdim - 1)
+    owned = ft.indices < imap_f.size_local
+
+    def count(name):
+        return comm.allreduce(int(np.sum(owned & (ft.values == TAGS[name]))), op=MPI.SUM)
+
+    return {
+        "cells": imap_c.size_global,
+        "nodes": imap_v.size_global,
+        "dofs": 2 * imap_v.size_global,
+        "interface_facets": count("interface_lower"),
+        "min_altitude_m": alt,
+        "min_cell_m": [pm.spec.dx, pm.spec.dy],
+        "area_m2": comm.allreduce(float(area.sum()), op=MPI.SUM),
+        "spec": dataclasses.asdict(pm.spec),
+    }

@@ -1,0 +1,104 @@
+"""The run directory's one table: every quantity fricfem writes, its unit, how
+it is read off the interface points, and how figures label it.
+
+Everything that writes or reads a run directory (:mod:`.recorder`,
+:mod:`.rundir`, :mod:`fricfem.plot`) takes names, units and labels from here.
+
+Run directory (format version :data:`FORMAT`):
+
+- ``interface.h5`` — ``x1`` [m] of every interface Gauss point (4 per segment),
+  ``time`` [s], and one ``[n_time, n_point]`` array per :data:`QUANTITIES`
+  entry and per law state variable (``state/<name>``); station histories at
+  every step under ``stations/<name>`` (``time`` and each quantity); the
+  energy history under ``energy/`` (:data:`ENERGY`).  Each dataset carries a
+  ``unit`` attribute.  The root attribute ``n_time`` (and ``n`` per station,
+  per energy group) counts the valid rows.
+- ``fields.xdmf`` + ``fields.h5`` — :data:`FIELDS` at the requested times.
+- ``summary.json`` — the run's record (scene, sizes, step, timing, initiation,
+  tip, fronts, mode, energy), with a ``units`` table.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+FORMAT = 2  # interface.h5 / summary.json layout version
+
+INTERFACE_FILE = "interface.h5"
+SUMMARY_FILE = "summary.json"
+FIELDS_FILE = "fields.xdmf"
+
+
+class Quantity(NamedTuple):
+    """One interface quantity of ``interface.h5``.
+
+    name    dataset name
+    unit    SI unit ("" dimensionless)
+    read    function of :class:`fricfem.model.interface.Points` -> float64[n_points]
+    label   figure label (mathtext)
+    signed  True when it changes sign with the sliding direction; figures then
+            draw it times the sliding sign, labelled ``neg_label`` when flipped
+    neg_label  label of the flipped quantity
+    doc     meaning
+    dtype   HDF5 dtype
+    """
+
+    name: str
+    unit: str
+    read: object
+    label: str
+    signed: bool = False
+    neg_label: str = ""
+    doc: str = ""
+    dtype: str = "f8"
+
+
+def _mu_app(p):
+    return np.divide(p.Ts, p.Tn, out=np.zeros_like(p.Ts), where=p.Tn > 0)
+
+
+#: interface.h5 snapshot quantities, in file order.
+QUANTITIES = (
+    Quantity("slip_rate", "m/s", lambda p: p.slip_rate, r"$\Delta\dot u_{\rm slip}$",
+             doc="frictional slip rate Δu̇_slip >= 0"),
+    Quantity("jump_rate_s", "m/s", lambda p: p.rate_s, r"$\Delta\dot u_s$", True, r"$-\Delta\dot u_s$",
+             doc="tangential jump rate Δu̇_s over the last step"),
+    Quantity("shear_traction", "Pa", lambda p: p.Ts, r"$T_s$", True, r"$-T_s$", doc="shear traction T_s"),
+    Quantity("normal_traction", "Pa", lambda p: p.Tn, r"$T_n$", doc="normal traction T_n, compression positive"),
+    Quantity("shear_traction_increment", "Pa", lambda p: p.dTs, r"$dT_s = \dot T_s\,dt$", True,
+             r"$-dT_s = -\dot T_s\,dt$", doc="change of T_s over the last step"),
+    Quantity("slip", "m", lambda p: p.slip, r"$\Delta u_{\rm slip}$", doc="accumulated frictional slip"),
+    Quantity("jump_s", "m", lambda p: p.jump_s, r"$\Delta u_s$", True, r"$-\Delta u_s$",
+             doc="tangential jump Δu_s = u⁺ − u⁻"),
+    Quantity("mu_app", "", _mu_app, r"$\mu_{\rm app} = T_s/T_n$", True, r"$-\mu_{\rm app} = -T_s/T_n$",
+             doc="apparent friction T_s/T_n (0 where open)"),
+    Quantity("open", "", lambda p: p.is_open, "open", doc="1 where the interface is open", dtype="i1"),
+)
+BY_NAME = {q.name: q for q in QUANTITIES}
+
+#: energy history (``energy/``) and summary energy keys -> unit.
+ENERGY = {"time": "s", "kinetic": "J/m", "strain": "J/m", "interface_work": "J/m", "interface_elastic": "J/m",
+          "dissipated": "J/m", "external": "J/m", "balance_error": "J/m"}
+
+#: field snapshot functions in ``fields.xdmf`` -> unit.
+FIELDS = {"displacement": "m", "velocity": "m/s", "stress_difference": "Pa"}
+
+#: Reference wave speeds (summary ``speeds``) and their figure labels.
+SPEED_LABEL = {"c_R": r"$c_R$", "c_s": r"$c_s$", "sqrt2_c_s": r"$\sqrt{2}\,c_s$", "c_l": r"$c_l$"}
+
+
+def label(name: str, sign: float = 1.0) -> str:
+    """Figure label of quantity ``name`` as drawn times ``sign`` (±1)."""
+    q = BY_NAME.get(name)
+    if q is None:
+        return name
+    return q.neg_label if (sign < 0 and q.signed) else q.label
+
+
+def unit(name: str) -> str:
+    """SI unit of an interface quantity, a ``state/<θ>`` dataset ("" if unknown) or an energy."""
+    if name in BY_NAME:
+        return BY_NAME[name].unit
+    return ENERGY.get(name, "")

@@ -1,0 +1,66 @@
+"""What the figures share: sizes, saving, panel letters, units of stresses.
+
+Labels of quantities come from :mod:`fricfem.output.quantities`.  Sign
+convention of the figures: Δu = u⁺ − u⁻, so under the paper's loading T_s and
+Δu̇_s are negative while Δu̇_slip ≥ 0.  Signed quantities (T_s, dT_s, Δu̇_s,
+Δu_s, μ_app) are drawn multiplied by the sliding direction
+sgn(Σ Δu̇_slip T_s), which makes them positive like the paper's plots; the
+axis labels say so ("−T_s") when the sign is flipped.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..output.quantities import BY_NAME, SPEED_LABEL, label  # noqa: F401 (re-exported for the figures)
+
+DPI = 120
+
+#: Quantities drawn times the sliding sign.
+SIGNED = tuple(q.name for q in BY_NAME.values() if q.signed)
+#: Quantities the interface figures can draw (all but the open flag).
+PLOTTED = tuple(name for name in BY_NAME if name != "open")
+
+
+def figure(width: float, height: float, nrows: int = 1, sharex: bool = True):
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
+    return fig, axes
+
+
+def save(fig: Figure, path, **savefig_kw) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, **savefig_kw)
+    return path
+
+
+def panel_letter(ax, k: int) -> None:
+    ax.text(0.012, 0.96, f"({'abcdefgh'[k]})", transform=ax.transAxes, va="top", ha="left",
+            fontsize=10, fontweight="bold", zorder=5,
+            bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
+
+
+def color_axis(ax, color: str, text: str) -> None:
+    ax.set_ylabel(text, color=color)
+    ax.tick_params(axis="y", colors=color)
+
+
+def stress_unit(values) -> tuple[float, str]:
+    """(scale, unit) showing stresses [Pa] in MPa, or kPa if they are all below 0.1 MPa."""
+    peak = float(np.nanmax(np.abs(values))) if np.size(values) else 0.0
+    return (1e-3, "kPa") if peak < 1e5 else (1e-6, "MPa")
+
+
+def time_styles(n: int) -> list[str]:
+    """Line styles for ``n`` times, the last one solid (earlier ones dashed, as the paper)."""
+    cycle = ["--", ":", "-."]
+    return [cycle[(n - 2 - k) % 3] for k in range(n - 1)] + ["-"]
+
+
+def markers(x_visible: int) -> dict:
+    """Small symbols at the integration points when few enough to be seen (the paper's circles)."""
+    return {"marker": "o", "ms": 2.2, "mfc": "none", "mew": 0.6} if x_visible <= 400 else {}

@@ -1,0 +1,112 @@
+"""InterfaceFile distributions along x1 at chosen times (the paper's Figs. 8, 10, 12 and 14)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.lines import Line2D
+
+from ..output.rundir import RunInfo, open_interface, run_info, sliding_sign
+from .common import PLOTTED, SIGNED, color_axis, figure, label, markers, panel_letter, save, stress_unit, time_styles
+
+
+
+def interface_distributions(src, times, path, *, info: RunInfo | None = None, sign: float | None = None,
+                            xlim=None, full: bool = True) -> Path:
+    """Distributions along x1 at ``times`` [s] (nearest stored rows) into ``path``.
+
+    (a) Δu̇_slip [m/s] and T_s [MPa] at every time (earlier ones dashed);
+    (b) Δu̇_s and dT_s = Ṫ_s dt at the last time; with ``full`` also
+    (c) T_n and μ_app and (d) Δu_slip and Δu_s [µm] at the last time.
+    ``src``: run directory, interface.h5, h5py.File or :class:`InterfaceFile`;
+    ``xlim`` (x1_min, x1_max) [m], default from the impact edge to just past
+    the loading wave front c_l t.
+    """
+    with open_interface(src) as itf:
+        rows = itf.nearest(times)
+        if len(rows) == 0:
+            raise ValueError(f"{path}: no valid interface rows to plot")
+        info = info or run_info(interface=itf)
+        sign = sliding_sign(itf) if sign is None else sign
+        t = itf.time[rows]
+        x = itf.x1 * 1e3
+        if xlim is None:
+            c_l = info.speeds.get("c_l")
+            hi = min(itf.x1[-1], 1.1 * c_l * t[-1]) if c_l and t[-1] > 0 else itf.x1[-1]
+            xlim = (min(0.0, itf.x1[0]), hi)
+        visible = int(np.count_nonzero((itf.x1 >= xlim[0]) & (itf.x1 <= xlim[1])))
+        mk = markers(visible)
+        last = rows[-1:]
+        q = {n: itf.rows(n, last)[0] for n in PLOTTED if n != "slip_rate" and itf.has(n)}
+        rate = itf.rows("slip_rate", rows)
+        ts = itf.rows("shear_traction", rows)
+
+        npanel = 4 if full else 2
+        fig, axes = figure(7.0, 2.55 * npanel + 0.6, npanel)
+        styles = time_styles(len(rows))
+        ax, axr = axes[0], axes[0].twinx()
+        for k in range(len(rows)):
+            ax.plot(x, rate[k], "C0", ls=styles[k], lw=1.2, **(mk if k == len(rows) - 1 else {}))
+            axr.plot(x, sign * ts[k] / 1e6, "C3", ls=styles[k], lw=1.2, **(mk if k == len(rows) - 1 else {}))
+        color_axis(ax, "C0", label("slip_rate") + " [m/s]")
+        color_axis(axr, "C3", label("shear_traction", sign) + " [MPa]")
+        ax.legend(handles=[Line2D([], [], color="k", ls=s, label=f"t = {tk * 1e6:.3g} µs")
+                           for s, tk in zip(styles, t)], loc="upper right", fontsize=8, framealpha=0.8)
+
+        tops = [axr, _twin_panel(axes[1], x, sign, q, "jump_rate_s", "shear_traction_increment", mk)]
+        if full:
+            tops.append(_twin_panel(axes[2], x, sign, q, "normal_traction", "mu_app", mk))
+            _slip_panel(axes[3], x, sign, q, mk)
+            tops.append(axes[3])
+        c_l = info.speeds.get("c_l")
+        for k, a in enumerate(axes):
+            panel_letter(tops[k], k)  # on the twin axes, which are drawn over the host's lines
+            if k != 2:  # T_n > 0: no zero line squeezing panel (c)
+                a.axhline(0.0, color="0.6", lw=0.5)
+            if c_l:
+                a.axvline(c_l * t[-1] * 1e3, color="0.5", ls=":", lw=0.9)
+            a.grid(alpha=0.25)
+        if c_l and xlim[0] < c_l * t[-1] < xlim[1]:
+            axes[0].text(c_l * t[-1] * 1e3, 1.0, r" $c_l t$", transform=axes[0].get_xaxis_transform(),
+                         va="bottom", ha="center", fontsize=8, color="0.4")
+        axes[-1].set_xlim(xlim[0] * 1e3, xlim[1] * 1e3)
+        axes[-1].set_xlabel(r"$x_1$ [mm]")
+        when = ", ".join(f"{tk * 1e6:.3g}" for tk in t)
+        later = f"; {'(b)–(d)' if full else '(b)'} at t = {t[-1] * 1e6:.3g} µs" if len(t) > 1 else ""
+        fig.suptitle(f"{info.title()}\ninterface at t = {when} µs{later}", fontsize=10)
+        fig.tight_layout()
+        return save(fig, path)
+
+
+def _twin_panel(ax, x, sign, q, left: str, right: str, mk):
+    """``left`` on the left axis (C0), ``right`` on a twin right axis (C3), at one
+    time; returns the twin axes."""
+    def scaled(name):
+        v = q[name] * (sign if name in SIGNED else 1.0)
+        if name in ("shear_traction", "normal_traction", "shear_traction_increment"):
+            scale, unit = stress_unit(v)
+            return v * scale, f" [{unit}]"
+        if name in ("slip_rate", "jump_rate_s"):
+            return v, " [m/s]"
+        return v, ""
+
+    axr = ax.twinx()
+    for a, name, color in ((ax, left, "C0"), (axr, right, "C3")):
+        if name not in q:
+            a.text(0.5, 0.5, f"no {name} in interface.h5", transform=a.transAxes, ha="center")
+            continue
+        v, unit = scaled(name)
+        a.plot(x, v, color, lw=1.2, **mk)
+        color_axis(a, color, label(name, sign) + unit)
+    return axr
+
+
+def _slip_panel(ax, x, sign, q, mk) -> None:
+    """Δu_slip and sgn·Δu_s [µm] (the paper's Fig. 14)."""
+    if "slip" in q:
+        ax.plot(x, q["slip"] * 1e6, "C0", lw=1.2, label=label("slip"), **mk)
+    if "jump_s" in q:
+        ax.plot(x, sign * q["jump_s"] * 1e6, "C2", lw=1.2, ls="--", label=label("jump_s", sign))
+    ax.set_ylabel(r"slip, jump [µm]")
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.8)

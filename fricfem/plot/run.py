@@ -1,0 +1,142 @@
+"""Every figure of a run directory: ``fricfem plot RUNDIR``.
+
+The figure kinds are the paper's (Coker, Lykotrafitis, Needleman & Rosakis,
+"Numerical Results"):
+
+- ``interface_<t>us.png``   distributions along the interface at chosen times
+  (Figs. 8, 10, 12 and 14; :mod:`.interface`);
+- ``tip_speed.png``         leading sliding tip position and speed V_tip versus
+  time with c_R, c_s, √2 c_s and c_l marked (Fig. 6; :mod:`.tip`);
+- ``station_<name>.png``    histories at an interface station (Figs. 20 and 21;
+  :mod:`.station`);
+- ``spacetime.png``         Δu̇_slip over (x1, t) with the tracked fronts
+  (:mod:`.spacetime`);
+- ``isochromatics_<t>us.png`` fringe pictures of σ1 − σ2 (Figs. 9, 11, 13, 16,
+  18; :mod:`.isochromatics`).
+
+Python API: times are in seconds. Command line: times are in µs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import os
+import sys
+from pathlib import Path
+
+from ..output.quantities import FIELDS_FILE, INTERFACE_FILE
+from ..output.rundir import InterfaceFile, RunInfo, pyvista_module, default_times, log, open_interface, read_summary, \
+    run_info, sliding_sign, time_tag
+from ..analysis.tip import tip_record
+from .interface import interface_distributions
+from .isochromatics import isochromatics
+from .spacetime import spacetime
+from .station import station_history
+from .tip import tip_speed
+
+
+def plot_run(rundir, times=None, out=None) -> list[Path]:
+    """Write every figure a run directory supports; return the PNG paths.
+
+    ``times`` [s]: interface distributions and isochromatics at the stored
+    times nearest to these (default: 3 evenly spaced plus the last row for
+    the interface, every written snapshot for the isochromatics).
+    ``out``: output directory (default ``RUNDIR/plots``). What a run did not
+    write (interface.h5, summary.json keys, fields.xdmf, pyvista) is skipped
+    with a warning on the ``fricfem.output`` logger.
+    """
+    rundir = Path(rundir)
+    if not rundir.is_dir():
+        raise FileNotFoundError(f"{rundir}: not a run directory")
+    out = Path(out) if out is not None else rundir / "plots"
+    out.mkdir(parents=True, exist_ok=True)
+    summary = read_summary(rundir)
+    written: list[Path] = []
+    h5path = rundir / INTERFACE_FILE
+    with contextlib.ExitStack() as stack:
+        itf = stack.enter_context(open_interface(h5path)) if h5path.is_file() else None
+        info = run_info(rundir, interface=itf, summary=summary)
+        if itf is None:
+            log.warning("%s: absent; interface figures skipped", h5path)
+        elif itf.n_time == 0:
+            log.warning("%s: no valid rows yet; interface figures skipped", h5path)
+        else:
+            written += _interface_figures(itf, out, times, info, summary)
+        tip = summary.get("tip")
+        if not (tip and len(tip.get("time_s", ()))) and itf is not None and itf.n_time and itf.has("slip_rate"):
+            tip = tip_record(itf.time, itf.x1, itf.all("slip_rate"))  # a run without diagnostics
+        if tip and len(tip.get("time_s", ())):
+            written.append(tip_speed(tip, out / "tip_speed.png", info=info))
+        else:
+            log.warning("no sliding tip in summary.json or interface.h5; tip_speed.png skipped")
+        written += _isochromatic_figures(rundir, out, times, info, itf)
+    return written
+
+
+def _interface_figures(itf: InterfaceFile, out: Path, times, info: RunInfo, summary: dict) -> list[Path]:
+    written = []
+    sign = sliding_sign(itf)
+    rows = itf.nearest(default_times(itf) if times is None else times)
+    for k, row in enumerate(rows):
+        pair = itf.time[rows[max(0, k - 1) : k + 1]]  # the previous chosen time dashed, as the paper
+        path = out / f"interface_{time_tag(itf.time[row])}.png"
+        written.append(interface_distributions(itf, pair, path, info=info, sign=sign))
+    for name, station in itf.stations().items():
+        if len(station.time):
+            written.append(station_history(station, out / f"station_{name}.png", info=info, sign=sign))
+    if itf.has("slip_rate"):
+        written.append(spacetime(itf, out / "spacetime.png", summary=summary, info=info))
+    return written
+
+
+def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf) -> list[Path]:
+    fields = rundir / FIELDS_FILE
+    if not fields.is_file():
+        log.warning("%s: absent (the scene wrote no fields); isochromatics skipped", fields)
+        return []
+    if pyvista_module() is None:
+        log.warning("pyvista is not installed; isochromatics skipped")
+        return []
+    return isochromatics(fields, out, times=times, info=info, itf=itf)
+
+
+def _mpi_rank() -> int:
+    """This process's rank when started by mpirun (OpenMPI or MPICH), else 0."""
+    for key in ("OMPI_COMM_WORLD_RANK", "PMI_RANK"):
+        if key in os.environ:
+            return int(os.environ[key])
+    return 0
+
+
+def main(argv=None) -> int:
+    """``fricfem plot RUNDIR [--times 22,32] [--out DIR]`` (times in µs)."""
+    parser = argparse.ArgumentParser(prog="fricfem plot", description="Figures of a fricfem run directory.")
+    parser.add_argument("rundir", help="directory written by `fricfem run`")
+    parser.add_argument("--times", help="comma-separated times in µs (nearest stored ones are used)")
+    parser.add_argument("--out", help="output directory (default RUNDIR/plots)")
+    args = parser.parse_args(argv)
+    if _mpi_rank() != 0:  # under mpirun only rank 0 draws
+        return 0
+    try:
+        times = None
+        if args.times:
+            times = [float(s) * 1e-6 for s in args.times.split(",") if s.strip()]
+    except ValueError:
+        print(f"fricfem plot: error: --times {args.times!r}: expected numbers in µs, e.g. 22,32", file=sys.stderr)
+        return 2
+    if not logging.getLogger().handlers:
+        logging.basicConfig(level=logging.WARNING, format="fricfem plot: %(message)s")
+    try:
+        paths = plot_run(args.rundir, times=times, out=args.out)
+    except (FileNotFoundError, ValueError, KeyError) as err:
+        print(f"fricfem plot: error: {err}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(p)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

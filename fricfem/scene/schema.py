@@ -1,0 +1,109 @@
+"""The scene schema: every key a scene may set, with type, default, unit,
+allowed range and meaning — one table (:data:`SCHEMA`).
+
+Keys that belong to a model dataclass are declared once, on its fields
+(:func:`fricfem.keys.field`): the mesh (:class:`~fricfem.model.mesh.MeshSpec`),
+the material (:class:`~fricfem.model.material.Material`) and the impact pulse
+(:class:`~fricfem.model.loading.ImpactPulse`).  Friction parameters are the
+law's own (:class:`fricfem.friction.Param`).  All values are SI.
+"""
+
+from __future__ import annotations
+
+from .. import friction
+from ..keys import NUM, Key, keys_of
+from ..model.loading import ImpactPulse
+from ..model.material import Material
+from ..model.mesh import MeshSpec
+
+
+class SceneError(ValueError):
+    """A scene is malformed; the message names the key, the value and what is allowed."""
+
+
+def _mesh_keys() -> dict:
+    """The MeshSpec fields as scene keys; unset ones come from the preset (default None)."""
+    return {name: k._replace(default=None, doc=f"{k.doc} (default: the preset's)")
+            for name, k in keys_of(MeshSpec).items()}
+
+
+def _loading_keys() -> dict:
+    pulse = keys_of(ImpactPulse)
+    return {
+        "sigma0": Key(NUM, 6e6, "Pa", 0.0, 1e9, "initial compression Σ0"),
+        **{k: pulse[k] for k in ("v_imp", "t_rise", "t_hold_end", "t_fall")},
+        "symmetric": Key(bool, False, doc="strike both plates (|x2| <= b)"),
+        **{k: pulse[k] for k in ("direction", "kind", "impedance")},
+    }
+
+
+#: The schema: section -> key -> :class:`fricfem.keys.Key` ("" is the top level).
+SCHEMA = {
+    "": {
+        "name": Key(str, "scene", doc="scene name"),
+        "description": Key(str, "", doc="one line on what the scene shows"),
+        "base": Key(str, "", doc="shipped scene or .toml file this one starts from"),
+    },
+    "mesh": {"preset": Key(str, "reference", doc="a mesh of meshes/ (coarse, reference, half, fine, "
+                                                 "rupture_band) or a path to a .toml mesh file"),
+             **_mesh_keys()},
+    "material": keys_of(Material),
+    "loading": _loading_keys(),
+    "interface": {
+        "Cn": Key(NUM, 3e11, "Pa/m", 0.0, None, "normal stiffness C_n", open_low=True),
+        "Cs": Key(NUM, 1e11, "Pa/m", 0.0, None, "shear stiffness C_s", open_low=True),
+        "tau0": Key(NUM, 0.0, "Pa", None, None, "initial shear traction"),
+        "patches": Key(list, [], doc="[{x1_min, x1_max, tau0}] initial shear traction patches"),
+    },
+    "friction": {
+        "law": Key(str, "povirk_needleman", doc="friction law name"),
+        "params": Key(dict, {}, doc="law parameters (friction.params.<name>, below)"),
+        "regions": Key(list, [], doc="[{x1_min, x1_max, params}] piecewise-constant overrides"),
+    },
+    "time": {
+        "end": Key(NUM, 40e-6, "s", 0.0, 1.0, "end time", open_low=True),
+        "dt_safety": Key(NUM, 0.9, "", 0.0, 1.0, "fraction of the stable step", open_low=True, open_high=True),
+        "dt": Key(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety)"),
+        "allow_unstable_dt": Key(bool, False, doc="accept a time.dt above the stable step (stability "
+                                                  "experiments; the watchdog guards the run)"),
+        "stop_at_tip": Key(NUM, 0.0, "m", 0.0, None,
+                           "end the run once the sliding tip passes this x1 (0: never), e.g. the fine region's end"),
+        "skip_quiet": Key(bool, True, doc="skip the rows the motion has not reached yet (bit-identical "
+                                          "to computing every row; false: compute every row)"),
+    },
+    "watchdog": {
+        "enabled": Key(bool, True, doc="stop a diverging run with a message"),
+        "max_slip_rate": Key(NUM, 0.0, "m/s", 0.0, None,
+                             "slip rates beyond this are taken as divergence (0: the material's c_l)"),
+        "energy_factor": Key(NUM, 1.5, "", 1.0, None, "stop when stored energy exceeds this × the input work",
+                             open_low=True),
+    },
+    "output": {
+        "fields": Key(list, [], "s", doc="times of field snapshots (displacement, velocity, σ1 − σ2)"),
+        "interface_every": Key(NUM, 0.2e-6, "s", 0.0, 1.0, "cadence of interface snapshots", open_low=True),
+        "stations": Key(dict, {"x16.1mm": 16.1e-3}, "m", doc="station name -> x1 (histories every step)"),
+        "energy_every": Key(int, 50, "steps", 0, None, "energy evaluation cadence (0: never)"),
+        "flush_every": Key(NUM, 2.0, "s", 0.0, None, "wall-clock seconds between flushes", open_low=True),
+        "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
+    },
+}
+
+
+def _key_line(name: str, k: Key) -> str:
+    unit = f" {k.unit}" if k.unit else ""
+    rng = f" {k.range_text()}" if k.range_text() else ""
+    choices = f" one of {', '.join(map(repr, k.choices))}" if k.choices else ""
+    return f"{name} = {k.default!r}{unit}{rng}{choices}: {k.doc}"
+
+
+def describe_keys() -> str:
+    """Every scene key, one line each: ``section.key = default [unit] range: meaning``,
+    then every friction law's parameters (``friction.params.<name>``)."""
+    lines = [_key_line(f"{section}.{key}" if section else key, k)
+             for section, keys in SCHEMA.items() for key, k in keys.items()]
+    for name, law in friction.LAWS.items():
+        lines.append(f"# friction.law = {name!r}: {law.doc}")
+        for p in law.params:
+            k = Key(NUM, p.default, p.unit, p.low, p.high, p.doc)
+            lines.append(_key_line(f"friction.params.{p.name}", k))
+    return "\n".join(lines)

@@ -1,0 +1,280 @@
+"""The bulk step in one pass over the stiffness: K u, the interface forces, the
+struck edge and the central-difference update together.
+
+With ``f = K u^n − F_int(u^n)`` the explicit central-difference step is
+
+    v^{n+½} = v^{n−½} − dt M⁻¹ f(u^n),      u^{n+1} = u^n + dt v^{n+½}.
+
+Row ``i`` of the update needs only row ``i`` of ``K u^n``, so one sweep over
+the rows of ``K`` computes ``s_i = Σ_j K_ij u^n_j`` and at once updates
+``v_i`` and ``u^{n+1}_i``: the matrix and each vector are read once, instead
+of a product ``K u`` followed by a separate update pass.  The new displacement
+goes into a second buffer (later rows still read u^n); the caller swaps the
+two buffers.
+
+Storage.  The P1 vector space interleaves the two components of a node
+(dof ``2 I + c``), so ``K`` is made of 2×2 blocks, kept as block CSR (one
+column index per block, a quarter of the scalar CSR's).  The few hundred rows
+that need more than the plain update are listed once, sorted ("special"):
+
+* struck-edge nodes: u1 is prescribed, ``u1 = U(t^{n+1})``, with the half-step
+  velocity ``(U(t^{n+1}) − U(t^n))/dt``, and the reaction ``R^n = M a^n + f^n``
+  does the work ``R^n (u^{n+1} − u^{n−1})/2``, as the two-pass step
+  (``tests/reference/two_pass.py``) has it (or, for a traction load, the edge force
+  enters the update; see :func:`_special_update`);
+* interface nodes: a short pre-pass puts ``K u^n`` into the vector ``g`` at
+  these rows, and :meth:`fricfem.step.interface.Interface.add_forces` adds the negative interface
+  forces there through its reverse scatter;
+* MPI boundary nodes: rows with columns owned by another rank, whose
+  off-rank displacements come through one more PETSc scatter.
+
+Order of a step::
+
+    begin gathering the off-rank displacements, and the interface's
+    sweep every row but the interface and MPI boundary rows ("deferred")
+    end the gather of off-rank displacements (it travelled during the sweep)
+    pre-pass; Interface.add_forces (end its gather, kernel, reverse scatter into g)
+    update the deferred rows
+
+The sweep neither reads nor writes ``g`` and leaves u^n in place, so the
+interface works after it on the same u^n, and both gathers travel while the
+rows are swept.
+
+Round-off.  Each row is summed in the order of PETSc's AIJ product (columns
+in order; on a boundary row the owned columns first, then the off-rank ones),
+and ``f`` at the interface rows is accumulated as ``(K u) + forces`` in the
+order of the reverse scatter, so the step reproduces the two-pass step
+(``K.mult``, :meth:`Interface.add_forces`, update) bit for bit (checked on 1
+to 4 ranks).  Only ``u · K u`` (energy) and the reaction work are summed in
+another order.
+
+The numba kernels are :mod:`fricfem.kernels.bulk`; here is what builds their
+data once (:func:`block_rows`, :func:`special_nodes`) and :class:`FusedBulk`,
+whose one verb :meth:`FusedBulk.advance` moves a :class:`fricfem.step.state.State`.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..kernels import bulk
+
+class BlockRows(NamedTuple):
+    """This rank's rows of ``K`` as block CSR with 2×2 blocks.
+
+    ptr    uint32[n_nodes + 1]  block-row pointers (owned nodes)
+    col    uint32[n_blocks]     block column: an owned node ``< n_nodes``, or
+                                ``n_nodes + k`` for the k-th gathered off-rank node
+    val    float64[4 n_blocks]  (K_00, K_01, K_10, K_11) of each block [N/m², per m thickness]
+    ghost  int64[n_ghost]       global node index of each gathered off-rank node (sorted)
+
+    The indices are unsigned so that numba's gathers ``x[2 col[p]]`` carry no
+    negative-index wrap-around test: that alone makes the sweep ~1.5× faster.
+    """
+
+    ptr: np.ndarray
+    col: np.ndarray
+    val: np.ndarray
+    ghost: np.ndarray
+
+
+class Special(NamedTuple):
+    """Nodes whose update needs more than the plain row (this rank, sorted).
+
+    node       int32[n + 1]  owned node index, then the sentinel ``n_nodes``
+    impact     int32[n]      index of the node's x1 dof in the struck-edge arrays, or −1
+    deferred   int8[n]       1: updated after the main sweep (interface rows, and MPI
+                             boundary rows, which wait for the off-rank displacements)
+    preloaded  int8[n]       1: an interface row, ``g`` holds ``K u`` + interface
+                             forces at the node; 0: ``g`` is zero there
+    """
+
+    node: np.ndarray
+    impact: np.ndarray
+    deferred: np.ndarray
+    preloaded: np.ndarray
+
+
+def block_rows(K: PETSc.Mat) -> BlockRows:
+    """Block CSR of the owned rows of ``K`` (AIJ whose layout has block size 2).
+
+    Raises ``ValueError`` unless rows ``2I`` and ``2I + 1`` share their columns
+    and the columns come in pairs ``(2J, 2J + 1)``.
+    """
+    r0, r1 = K.getOwnershipRange()
+    if r0 % 2 or r1 % 2:
+        raise ValueError(f"fused: the ownership range [{r0}, {r1}) of K splits a node")
+    ip, jj, vv = K.getValuesCSR()
+    counts = np.diff(np.asarray(ip, dtype=np.int64))
+    jj = np.asarray(jj, dtype=np.int64)
+    n_nodes = (r1 - r0) // 2
+    even_row = np.repeat(np.arange(len(counts)) % 2 == 0, counts)
+    c0, c1 = jj[even_row], jj[~even_row]
+    ok = (
+        np.array_equal(counts[0::2], counts[1::2])
+        and not (counts % 2).any()
+        and np.array_equal(c0, c1)
+        and not (c0[0::2] % 2).any()
+        and np.array_equal(c0[1::2], c0[0::2] + 1)
+    )
+    if not ok:
+        raise ValueError("fused: K is not made of 2x2 node blocks (a P1 vector space is expected)")
+    gnode = c0[0::2] // 2
+    if len(gnode) >= 2**32:
+        raise ValueError(f"fused: {len(gnode)} blocks on one rank; at most 2**32 - 1 are supported")
+    val = np.column_stack([np.asarray(vv[even_row]).reshape(-1, 2), np.asarray(vv[~even_row]).reshape(-1, 2)])
+    ptr = np.concatenate([[0], np.cumsum(counts[0::2] // 2)]).astype(np.uint32)
+    owned = (gnode >= r0 // 2) & (gnode < r1 // 2)
+    ghost = np.unique(gnode[~owned])
+    col = np.empty(len(gnode), dtype=np.uint32)
+    col[owned] = gnode[owned] - r0 // 2
+    col[~owned] = n_nodes + np.searchsorted(ghost, gnode[~owned])
+    return BlockRows(ptr, col, np.ascontiguousarray(val.ravel()), ghost)
+
+
+def interface_nodes(interface, template: PETSc.Vec) -> np.ndarray:
+    """Owned nodes (local indices) that receive interface forces: ones sent back
+    through the interface's reverse scatter mark them."""
+    if interface is None:
+        return np.zeros(0, dtype=np.int64)
+    geom = interface.geometry
+    ones = geom.force.duplicate()
+    ones.set(1.0)
+    mark = template.duplicate()
+    mark.set(0.0)
+    geom.scatter.scatter(ones, mark, PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
+    return np.unique(np.flatnonzero(mark.array_r) // 2)
+
+
+def _has_off_rank(rows: BlockRows, nodes: np.ndarray, n_nodes: int) -> np.ndarray:
+    """bool[len(nodes)]: the node's row has off-rank columns."""
+    row_of_block = np.repeat(np.arange(n_nodes), np.diff(rows.ptr.astype(np.int64)))
+    return np.isin(nodes, row_of_block[rows.col >= n_nodes])
+
+
+def special_nodes(rows: BlockRows, impact_dofs: np.ndarray, iface_nodes: np.ndarray) -> Special:
+    """Merge the interface, struck-edge (x1 dofs: even local indices) and MPI boundary nodes."""
+    impact_dofs = np.asarray(impact_dofs, dtype=np.int64)
+    if (impact_dofs % 2).any():
+        raise ValueError("fused: the prescribed dofs must be x1 components (even local indices)")
+    n_nodes = len(rows.ptr) - 1
+    bnd = np.flatnonzero(_has_off_rank(rows, np.arange(n_nodes), n_nodes))
+    imp = impact_dofs // 2
+    node = np.unique(np.concatenate([iface_nodes, imp, bnd]).astype(np.int64))
+    impact = np.full(len(node), -1, dtype=np.int32)
+    impact[np.searchsorted(node, imp)] = np.arange(len(imp), dtype=np.int32)
+    on_interface = np.isin(node, iface_nodes)
+    deferred = (on_interface | np.isin(node, bnd)).astype(np.int8)
+    preloaded = on_interface.astype(np.int8)
+    return Special(np.append(node, n_nodes).astype(np.int32), impact, deferred, preloaded)
+
+
+class FusedBulk:
+    """The fused step of one model: built once, one verb (:meth:`advance`).
+
+    >>> bulk = FusedBulk(K, dt / mass, dt, interface, impact)
+    >>> uku, work = bulk.advance(state)   # state.u_next <- u^{n+1}, state.v <- v^{n+½}
+
+    Skipping what the motion has not reached.  Started from rest, a row whose
+    node and neighbours all hold u = v = 0 has an update of exactly zero, so it
+    is skipped ("quiet"); it is computed from the step after one of its
+    neighbours first holds a nonzero displacement.  The result is the full
+    computation's, bit for bit.  (The explicit scheme's numerical precursor
+    runs ahead of the c_l front, one ring of cells per step, with values that
+    decay faster than exponentially; waking rows only above a tiny threshold
+    would skip more, but rounding then differs in the last bits, which the
+    adaptive friction integration can amplify, so it is not done.)  The
+    special rows are always computed.  Which rows are awake belongs to the
+    state (``state.act``, :class:`fricfem.step.state.State`); a state set by
+    hand must be woken (``state.wake()``).
+    """
+
+    def __init__(self, K: PETSc.Mat, dt_minv, dt: float, interface, impact):
+        """``interface`` the model's :class:`fricfem.step.interface.Interface` or None
+        (bulk alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
+        masses, pulse, traction coefficients).  Collective."""
+        self.dt = float(dt)
+        dt_minv = np.asarray(dt_minv, dtype=np.float64)
+        if not np.array_equal(dt_minv[0::2], dt_minv[1::2]):
+            raise ValueError("fused: the lumped mass differs between the two components of a node")
+        self.dt_minv = dt_minv[0::2].copy()  # per node: both components carry the same mass
+        self.interface = interface
+        self.pulse = impact.pulse
+        traction = not impact.pulse.prescribed and len(impact.force) == len(impact.dofs)
+        self.edge = (np.ascontiguousarray(impact.mass, dtype=np.float64),
+                     np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64),
+                     np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
+        self.rows = block_rows(K)
+        self.g = K.createVecRight()  # see Special.preloaded; zero between steps
+        self.g.set(0.0)
+        self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, self.g))
+        self.n_nodes = len(self.rows.ptr) - 1
+        self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the preloaded rows, see kernels.bulk.preload
+        self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
+        self._special = tuple(self.special)
+        comm = K.getComm().tompi4py()
+        self.ghost_scatter = None
+        self.ug = np.zeros(0)
+        if comm.allreduce(len(self.rows.ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
+            gdofs = (2 * self.rows.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+            self.ghost_vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
+            is_from = PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF)
+            self.ghost_scatter = PETSc.Scatter().create(self.g, is_from, self.ghost_vec, None)
+            self.ug = self.ghost_vec.array
+
+    def activity(self, at_rest: bool) -> np.ndarray:
+        """A fresh activity array (int8[n_nodes]) for a state: at rest, only the
+        special rows are awake; otherwise every row is (``kernels.bulk.SPREAD``)."""
+        act = np.full(self.n_nodes, bulk.SPREAD, dtype=np.int8)
+        if at_rest:
+            act[:] = bulk.QUIET
+            act[self.special.node[:-1]] = bulk.ACTIVE
+        return act
+
+    def advance(self, state):
+        """One step of ``state`` from t^n = ``state.t``.  Collective.
+
+        Writes u^{n+1} into ``state.u_next`` and v^{n+½} into ``state.v``
+        (``state.u`` is left as u^n), advances the interface points with u^n,
+        sets ``state.u_imp_prev`` (the struck dofs' previous displacement) to
+        U(t^n) and updates ``state.act`` and ``state.seconds``.
+
+        Returns this rank's ``u^n · K u^n`` [J/m] (twice its share of the strain
+        energy) and its reaction work over the step [J/m].
+        """
+        dt, t = self.dt, state.t
+        u, u_next, v, imp_prev, act = state.u, state.u_next, state.v, state.u_imp_prev, state.act
+        u0 = self.pulse.displacement(t)
+        u1 = self.pulse.displacement(t + dt)
+        load = (dt, u0, u1, (u1 - u0) / dt, self.pulse.sign * self.pulse.velocity(t))
+        rows, special, edge = self._rows, self._special, self.edge
+        ua, una, va, ga = u.array_r, u_next.array, v.array, self.g.array
+        insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
+        t0 = time.perf_counter()
+        if self.ghost_scatter is not None:
+            self.ghost_scatter.begin(u, self.ghost_vec, insert, forward)
+        if self.interface is not None:
+            self.interface.begin_gather(u)  # travels during the sweep
+        t1 = time.perf_counter()
+        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, ga, imp_prev, act)
+        t2 = time.perf_counter()
+        if self.ghost_scatter is not None:
+            self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
+        t3 = time.perf_counter()
+        if self.interface is not None:
+            bulk.preload(rows, special, ua, self.ug, ga, self.sp_ku)
+            self.interface.add_forces(u, self.g, dt, started=True)  # g += −F_int(u^n)
+        t4 = time.perf_counter()
+        uku_d, work_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va, self.dt_minv, ga,
+                                            imp_prev, act, self.sp_ku)
+        t5 = time.perf_counter()
+        sec = state.seconds
+        sec["interface"] += (t1 - t0) + (t4 - t3)
+        sec["sweep"] += (t2 - t1) + (t5 - t4)
+        sec["wait"] += t3 - t2
+        return uku + uku_d, work + work_d

@@ -1,0 +1,85 @@
+"""The two-pass explicit step: ``f = K u`` (PETSc), the interface forces added
+into ``f``, then the leapfrog update and the struck edge — the oracle the
+fused step (:mod:`fricfem.step.fused`) must reproduce bit for bit."""
+
+from __future__ import annotations
+
+import time
+
+import numba
+import numpy as np
+from mpi4py import MPI
+
+
+def step_two_pass(model, state, energy: dict | None = None, timers: dict | None = None) -> None:
+    """The step as two passes, f = K u − F_int (PETSc) then the update: the reference
+    for :func:`fricfem.step.step`, and the one with phase timers.  If ``timers`` is a dict, the
+    seconds spent in the phases ``bulk`` (K·u), ``interface`` (gather, kernel,
+    scatter-add) and ``update`` (leapfrog pass, struck edge, work) are added to it."""
+    dt = model.dt
+    imp = model.impact
+    u, v, f = state.u, state.v, state.f
+    if timers is not None:
+        t0 = time.perf_counter()
+    model.K.mult(u, f)  # f = K u^n
+    if energy is not None:
+        strain = 0.5 * u.dot(f)
+        v_old = v.array_r.copy()
+    if timers is not None:
+        t1 = time.perf_counter()
+    model.interface.add_forces(u, f, dt)  # f = K u^n − F_int(u^n)
+    if timers is not None:
+        t2 = time.perf_counter()
+    fa = f.array_r
+    f_imp = fa[imp.dofs]
+    v_imp_old = v.array_r[imp.dofs]
+    u_imp_old = u.array_r[imp.dofs]
+    leapfrog_update(u.array, v.array, fa, model.dt_minv, dt)
+    if imp.pulse.prescribed:
+        # the struck edge: exact prescribed displacement, consistent half-step velocity
+        u1 = imp.pulse.displacement(state.t + dt)
+        u0 = imp.pulse.displacement(state.t)
+        u.array[imp.dofs] = u1
+        v.array[imp.dofs] = (u1 - u0) / dt
+        # reaction R^n = M a^n + f^n on the struck dofs; work R^n·(u^{n+1} − u^{n−1})/2
+        react = imp.mass * ((u1 - u0) / dt - v_imp_old) / dt + f_imp
+        state.work_ext += float(np.dot(react, 0.5 * (u1 - state.u_imp_prev)))
+        state.u_imp_prev = np.full(len(imp.dofs), u0)
+    else:
+        # a traction F = force·sign·V(t^n) − damp·v^n, v^n = (v^{n−½} + v^{n+½})/2 (implicit in v^{n+½})
+        sv = imp.pulse.sign * imp.pulse.velocity(state.t)
+        c = model.dt_minv[imp.dofs]
+        a = 0.5 * c * imp.damp
+        v_new = (v_imp_old * (1.0 - a) - c * (f_imp - imp.force * sv)) / (1.0 + a)
+        u_new = u_imp_old + dt * v_new
+        v.array[imp.dofs] = v_new
+        u.array[imp.dofs] = u_new
+        load = imp.force * sv - imp.damp * 0.5 * (v_imp_old + v_new)
+        state.work_ext += float(np.dot(load, 0.5 * (u_new - state.u_imp_prev)))
+        state.u_imp_prev = u_imp_old
+    if energy is not None:
+        kinetic = 0.5 * float(np.dot(model.mass * v_old, v.array_r))
+        loc = np.array([kinetic, state.work_ext])
+        tot = np.zeros(2)
+        model.comm.Allreduce(loc, tot, op=MPI.SUM)
+        energy.update(model.interface.energy())
+        energy.update(time=state.t, kinetic=tot[0], strain=strain, external=tot[1])
+        energy["balance_error"] = (
+            energy["kinetic"] + energy["strain"] + energy["interface_work"] - energy["external"]
+        )
+    state.t_interface = state.t
+    state.t += dt
+    state.n += 1
+    if timers is not None:
+        t3 = time.perf_counter()
+        for name, seconds in (("bulk", t1 - t0), ("interface", t2 - t1), ("update", t3 - t2)):
+            timers[name] = timers.get(name, 0.0) + seconds
+
+
+
+@numba.njit(cache=True)
+def leapfrog_update(u, v, f, dt_minv, dt):
+    """v -= (dt/m) f; u += dt v — one pass over the owned dofs."""
+    for i in range(u.size):
+        v[i] -= dt_minv[i] * f[i]
+        u[i] += dt * v[i]
