@@ -3,6 +3,8 @@ leaves the physics bit-identical.
 
 A fingerprint holds the SHA-256 of every array a run writes (interface.h5,
 fields.h5) and of the summary's numbers, so equal fingerprints mean equal bits.
+Only the physics counts: datasets and result numbers, not file
+attributes (units, format versions) or where the mode's evidence is kept.
 The energy history is the exception: it is summed with BLAS (``np.dot``),
 whose order of summation depends on the processor, so it is kept as numbers
 and compared to 1e-12 relative.
@@ -33,9 +35,10 @@ CASES = {
     "case3_20us_1rank": ("case3", ("time.end=20e-6", "output.fields=[16e-6]"), "self"),
 }
 
-#: summary keys that are the run's results (wall times and the like are not)
+#: summary keys that are the run's results (wall times, metadata and where the
+#: evidence is stored are not); the mode counts by its label
 SUMMARY_KEYS = ("steps", "t_s", "dt_s", "dt_crit_s", "dofs", "interface_points", "complete", "initiation",
-                "tip", "fronts", "mode", "watchdog", "ended_early")
+                "tip", "fronts", "watchdog", "ended_early")
 ENERGY_RTOL = 1e-12
 
 
@@ -47,30 +50,41 @@ def _digest(a) -> str:
     return h.hexdigest()
 
 
-def _h5_digests(path: Path, skip=("energy",)) -> dict:
-    import h5py
+def _run_digests(rundir: Path) -> dict:
+    """Digests of everything the run-directory reader returns (fricfem.open_run):
+    the interface rows, every quantity, the station histories."""
+    from fricfem import open_run
 
-    out = {}
-    if not path.is_file():
-        return out
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and name.split("/")[0] not in skip:
-                out[name] = _digest(obj[...])
-        f.visititems(visit)
-        out["@attrs"] = hashlib.sha256(json.dumps({k: np.asarray(v).tolist() for k, v in f.attrs.items()},
-                                                  sort_keys=True, default=str).encode()).hexdigest()
+    r = open_run(rundir)
+    out = {"time": _digest(r.t), "x1": _digest(r.x1)}
+    for name in r.names:
+        out[name] = _digest(r.quantity(name))
+    for st, data in r.stations.items():
+        for q, v in data.items():
+            out[f"stations/{st}/{q}"] = _digest(np.asarray(v))
     return out
 
 
-def _energy(path: Path) -> dict:
-    import h5py
+def _field_digests(rundir: Path) -> dict:
+    """Digests of every field snapshot as the field reader returns it."""
+    from fricfem.output.quantities import FIELDS, FIELDS_FILE
+    from fricfem.output.rundir import FieldReader
 
+    path = Path(rundir) / FIELDS_FILE
     if not path.is_file():
         return {}
-    with h5py.File(path, "r") as f:
-        g = f.get("energy")
-        return {} if g is None else {k: g[k][...].tolist() for k in g}
+    out = {}
+    for name in FIELDS:
+        reader = FieldReader(path, name)
+        for i, t in enumerate(reader.times):
+            out[f"{name}@{t:.9e}"] = _digest(reader.values(i))
+    return out
+
+
+def _energy(rundir: Path) -> dict:
+    from fricfem import open_run
+
+    return {k: np.asarray(v).tolist() for k, v in open_run(rundir).energy.items()}
 
 
 def fingerprint(rundir: Path) -> dict:
@@ -78,15 +92,16 @@ def fingerprint(rundir: Path) -> dict:
     rundir = Path(rundir)
     summary = json.loads((rundir / "summary.json").read_text())
     results = {k: summary.get(k) for k in SUMMARY_KEYS}
+    results["mode"] = (summary.get("mode") or {}).get("label")
     energy = summary.get("energy") or {}
     return {
-        "interface.h5": _h5_digests(rundir / "interface.h5"),
-        "fields.h5": _h5_digests(rundir / "fields.h5", skip=()),
+        "interface.h5": _run_digests(rundir),
+        "fields.h5": _field_digests(rundir),
         "summary": hashlib.sha256(json.dumps(results, sort_keys=True).encode()).hexdigest(),
         "summary_numbers": {"steps": summary.get("steps"), "dt_s": summary.get("dt_s"),
                             "mode": (summary.get("mode") or {}).get("label"),
                             "initiation": summary.get("initiation")},
-        "energy_history": _energy(rundir / "interface.h5"),
+        "energy_history": _energy(rundir),
         "energy_summary": {k: v for k, v in energy.items() if isinstance(v, (int, float))},
     }
 

@@ -174,7 +174,7 @@ def info(rundir: Path) -> rd.RunInfo:
 
 def leading_regions(r: Run, t: float) -> list:
     """Slipping regions at ``t`` (``Run.regions``: ≥ 3 points, peak ≥ 0.05 m/s), leading one last."""
-    return r.regions(r.at(t))
+    return measures.regions(r, r.at(t))
 
 
 def mu_app(r: Run) -> np.ndarray:

@@ -23,6 +23,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import _common as common
+from fricfem.analysis import measures
 from fricfem.plot.common import DPI
 from fricfem.plot.common import label as quantity_label
 
@@ -66,7 +67,7 @@ def report(args, runs):
         rep.add(f"{label}: largest Δu_slip, 32 µs", None, float(slip.max()) * 1e6, "µm")
         rep.add(f"{label}: largest |Δu_s|, 32 µs", None, float(np.abs(jump).max()) * 1e6, "µm")
         rep.add(f"{label}: steps in Δu_slip (stick stretches inside the slipped zone)", paper,
-                max(len(r.regions(k32)) - 1, 0))
+                max(len(measures.regions(r, k32)) - 1, 0))
         inside = (r.slip_rate[k32] > 0) & (r.x1 > 5e-3) & (r.x1 < r.tip(T_FIG) - 5e-3)
         swing = float(np.ptp(np.abs(r.shear_traction)[k32, inside])) / 1e6 if inside.any() else None
         rep.add(f"{label}: |T_s| swing along the slipped zone, 32 µs",

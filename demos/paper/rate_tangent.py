@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-import _common as common  # (scene: the shipped scene under a reading)
+import _common as common
+from fricfem.analysis import measures  # (scene: the shipped scene under a reading)
 
 from fricfem import open_run, runner
 
@@ -72,7 +73,7 @@ def measure(d: Path) -> dict:
     s = json.loads((d / "summary.json").read_text())
     r = open_run(d)
     ini = s.get("initiation")
-    counts = [len(r.regions(k)) for k in range(len(r.t))]
+    counts = [len(measures.regions(r, k)) for k in range(len(r.t))]
     peak = float(r.slip_rate.max(initial=0.0))
     k32 = r.at(32e-6) if len(r.t) and r.t[-1] >= 32e-6 else None
     st = r.stations.get("x16.1mm", {})

@@ -9,6 +9,14 @@ import math
 
 import numpy as np
 
+from .regions import slip_regions
+
+
+def regions(r, k: int, floor: float = 0.05) -> list:
+    """Slipping regions of row ``k`` of a run (at least 3 points, peak >= ``floor``
+    [m/s]; :func:`~.regions.slip_regions`)."""
+    return slip_regions(r.x1, r.slip_rate[k], min_points=3, floor=floor)
+
 
 def first_slip(r) -> tuple:
     """(time [µs], x1 [mm]) of the first sliding (summary ``initiation``), or (None, None)."""
@@ -50,7 +58,7 @@ def pulse_train(r, t: float, x_max: float = 60e-3) -> dict:
     ``t``: regions within x_end < ``x_max`` (the uniform fine mesh); width the
     median over them but the last (the leading pulse), spacing the median
     distance between successive region starts."""
-    regs = r.regions(r.at(t))
+    regs = regions(r, r.at(t))
     behind = [g for g in regs if g.x_end < x_max]
     widths = [g.width * 1e3 for g in behind[:-1]] if len(behind) > 2 else []
     starts = [g.x_start * 1e3 for g in behind]

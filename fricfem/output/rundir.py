@@ -294,6 +294,12 @@ class FieldReader:
         t = np.atleast_1d(np.asarray(times, dtype=np.float64))
         return np.unique(np.abs(self.times[None, :] - t[:, None]).argmin(axis=1))
 
+    def values(self, index: int) -> np.ndarray:
+        """The function's values at written time ``index`` (cells or nodes, as written)."""
+        _, _, item = self._steps[index]
+        values = self._read(item)
+        return values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
+
     def grid(self, index: int):
         """pyvista UnstructuredGrid of the mesh with the function at written time ``index``."""
         pv = pyvista_module()
@@ -399,12 +405,6 @@ class Run:
         """x1 [m] of the leading sliding tip in the row nearest to ``t`` (nan: no sliding)."""
         s = self.profile("slip_rate", t) > 0
         return float(self.x1[s].max()) if s.any() else math.nan
-
-    def regions(self, k: int, floor: float = 0.05) -> list:
-        """Slipping regions of row ``k`` (at least 3 points, peak >= ``floor`` [m/s])."""
-        from ..analysis.regions import slip_regions
-
-        return slip_regions(self.x1, self.quantity("slip_rate")[k], min_points=3, floor=floor)
 
 
 def open_run(rundir) -> Run:

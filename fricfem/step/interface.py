@@ -15,7 +15,7 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from petsc4py import PETSc
 
 from ..kernels.interface import kernel_for, spring_kernel
-from ..model.interface import Geometry, Points
+
 
 
 class Interface:
@@ -23,7 +23,9 @@ class Interface:
     time loop needs: :meth:`begin_gather`, :meth:`add_forces`,
     :meth:`add_spring_action` and :meth:`energy`."""
 
-    def __init__(self, geometry: Geometry, points: Points, law):
+    def __init__(self, geometry, points, law):
+        """``geometry`` and ``points``: :mod:`fricfem.model.interface` (Geometry, Points);
+        ``law``: a :class:`fricfem.friction.Law`."""
         self.geometry = geometry
         self.points = points
         self.law = law
