@@ -26,6 +26,7 @@ import numba
 import numpy as np
 from numba import types
 
+from ..kernels.cache import ensure_fresh
 from .base import ADVANCE_TYPE, SLIDE_TYPE, Law, as_params, storage
 
 _vec = types.float64[::1]
@@ -82,6 +83,7 @@ def _run_jump_rate(advance, p, s, Ts0, t, vs, Tn, Cs, Ts, rate, slip, work, nsub
 @functools.lru_cache(maxsize=None)
 def _loops():
     """The two step loops, compiled (or loaded from the cache) on first use."""
+    ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
     f8, i8 = types.float64, types.int64
     jump = numba.njit(
         types.void(ADVANCE_TYPE, _vec, _vec, f8, _vec, _vec, _vec, f8,

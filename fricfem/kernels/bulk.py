@@ -18,10 +18,10 @@ per call), unpacked on the first line of each kernel:
     load    (dt [s], u0 = U(t^n) [m], u1 = U(t^{n+1}) [m], v_bc = (u1 − u0)/dt
             [m/s], sv = sign · V(t^n) [m/s]) of this step
 
-Rounding: each row is summed in the order of PETSc's AIJ product (columns in
-order; on a boundary row the owned columns first, then the off-rank ones), so
-the fused step reproduces the two-pass step (``K.mult``, interface forces,
-update) bit for bit.
+Rounding: every row is summed over its blocks in the grid's node order
+(:mod:`fricfem.model.numbering`), owned and off-rank columns alike, and an
+interface row's force is ``(K u)_i + left_i + right_i`` in that order, so a
+row's sums have the same bits on any number of ranks.
 """
 
 import numba
@@ -44,8 +44,8 @@ def _add_block(val, b, x0, x1, s0, s1):
 
 @numba.njit(cache=True)
 def _row(ptr, col, val, x, I):
-    """(K x)_{2I}, (K x)_{2I+1} for a row whose columns are all owned; summed in
-    column order, as PETSc's AIJ product."""
+    """(K x)_{2I}, (K x)_{2I+1} for a row whose columns are all owned, summed
+    over its blocks in their stored (grid) order."""
     s0 = 0.0
     s1 = 0.0
     for p in range(ptr[I], ptr[I + 1]):
@@ -57,26 +57,24 @@ def _row(ptr, col, val, x, I):
 @numba.njit(cache=True)
 def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
     """The same for a boundary row, ``xg`` holding the gathered off-rank values:
-    owned columns first, then the off-rank ones (PETSc's MPIAIJ order)."""
+    one pass in the stored (grid) order, owned and off-rank columns alike."""
     s0 = 0.0
     s1 = 0.0
     for p in range(ptr[I], ptr[I + 1]):
         J = col[p]
         if J < n_nodes:
             s0, s1 = _add_block(val, 4 * p, x[2 * J], x[2 * J + 1], s0, s1)
-    for p in range(ptr[I], ptr[I + 1]):
-        J = col[p]
-        if J >= n_nodes:
+        else:
             k = 2 * (J - n_nodes)
             s0, s1 = _add_block(val, 4 * p, xg[k], xg[k + 1], s0, s1)
     return s0, s1
 
 
 @numba.njit(cache=True)
-def preload(rows, special, u, ug, g, sp_ku):
-    """``g = K u`` at the preloaded special nodes (before the interface adds its
-    forces), and a copy in ``sp_ku`` (float64[2 n_special], by special index)
-    for the energy; ``ug`` the gathered off-rank displacements, if a row needs them."""
+def preload(rows, special, u, ug, sp_ku):
+    """``K u`` at the interface (preloaded) special nodes into ``sp_ku``
+    (float64[2 n_special], by special index), while the interface computes its
+    forces; ``ug`` the gathered off-rank displacements, if a row needs them."""
     ptr, col, val = rows
     sp_node, _, _, sp_preloaded = special
     n = ptr.size - 1
@@ -84,16 +82,16 @@ def preload(rows, special, u, ug, g, sp_ku):
         if sp_preloaded[k]:
             I = sp_node[k]
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
-            g[2 * I] = s0
-            g[2 * I + 1] = s1
             sp_ku[2 * k] = s0
             sp_ku[2 * k + 1] = s1
 
 
 @numba.njit(cache=True)
-def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev):
+def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev):
     """Update the special node ``I`` (its index ``k`` in the special arrays) from
-    ``s = (K u)_I``; returns the work of the step's load on it [J/m].
+    ``s = (K u)_I``; returns the work of the step's load on it [J/m].  An
+    interface row adds the negative interface forces from the segments on its
+    left and right, ``gl`` and ``gr``, in that order.
 
     On the struck edge either u1 is prescribed (``edge`` masses; U(t^n),
     U(t^{n+1}), v_bc) or, when the edge's force coefficients are not empty, a
@@ -104,10 +102,8 @@ def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, g, i
     dt, u0, u1, v_bc, sv = load
     i = 2 * I
     if sp_preloaded[k]:
-        f0 = g[i]  # (K u) + forces, summed as the two-pass step does
-        f1 = g[i + 1]
-        g[i] = 0.0  # ready for the next step
-        g[i + 1] = 0.0
+        f0 = s0 + gl[i] + gr[i]  # (K u) + left + right: the same bits on any number of ranks
+        f1 = s1 + gl[i + 1] + gr[i + 1]
     else:
         f0 = s0
         f1 = s1
@@ -149,15 +145,15 @@ def _wake_neighbours(ptr, col, act, n, I):
 
 
 @numba.njit(cache=True)
-def sweep(rows, special, edge, load, u, unew, v, dt_minv, g, imp_prev, act):
+def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
     unew      float64[2 n]    u^{n+1} (written)                 [m]
     v         float64[2 n]    v^{n−½} in, v^{n+½} out           [m/s]
     dt_minv   float64[n]      dt / lumped mass of each node     [s m/kg]
-    g         float64[2 n]    K u + interface forces at the preloaded rows, zero
-                              elsewhere; zero again on return   [N/m]
+    gl, gr    float64[2 n]    the negative interface forces from the segment on a
+                              node's left / right (zero off the interface) [N/m]
     imp_prev  float64[n_imp]  u^{n−1} of the struck dofs, set to u^n = U(t^n) [m]
     act       int8[n]         activity of each row (QUIET rows are skipped), updated
 
@@ -182,7 +178,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, g, imp_prev, act):
                 continue  # in sweep_deferred, once the messages are in
             s0, s1 = _row(ptr, col, val, u, I)
             uku += u[i] * s0 + u[i + 1] * s1
-            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev)
+            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev)
             if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
                 _wake_neighbours(ptr, col, act, n, I)
             continue
@@ -202,7 +198,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, g, imp_prev, act):
 
 
 @numba.njit(cache=True)
-def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, g, imp_prev, act, sp_ku):
+def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, act, sp_ku):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
     ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
@@ -222,7 +218,7 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, g, imp_pr
         else:
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
-        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, g, imp_prev)
+        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev)
         if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
     return uku, work

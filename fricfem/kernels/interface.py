@@ -4,10 +4,12 @@ its verbs: :mod:`fricfem.step.interface`).
 
 Arrays and scalars only, bundled as plain tuples unpacked on the first line:
 
-    geom    (seg_w int32[n_seg, 4], shape float64[4, 2], wq float64[n_pts])
-            work-vector offsets of each segment's (lower a, lower b, upper a,
-            upper b) x1 dofs, the shape functions at the Gauss points, and the
-            Gauss weights × half segment length [m]
+    geom    (seg int32[n_seg, 8], shape float64[4, 2], wq float64[n_pts]):
+            per segment the work-vector offsets of its (lower a, lower b, upper
+            a, upper b) x1 dofs, then the offsets of its own force slots for the
+            same nodes; the shape functions at the Gauss points; the Gauss
+            weights × half segment length [m].  (Three members: with a fourth,
+            numba 0.56 stops caching the per-law kernels.)
     const   (Tn0, Ts0 [Pa], Cn, Cs [Pa/m] float64[n_pts],
              param_rows float64[k, n_params], param_index int32[n_pts])
     pts     the point state, updated in place: (state float64[n_pts, n_storage],
@@ -24,17 +26,17 @@ import numba
 
 
 @numba.njit(inline="always", cache=True)
-def _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy):
-    """Add the *negative* of a Gauss point's force (fx, fy) on the lower plate
-    to the lower nodes a, b (shape values na, nb) and its opposite to the upper."""
-    fw[la] -= na * fx
-    fw[la + 1] -= na * fy
-    fw[lb] -= nb * fx
-    fw[lb + 1] -= nb * fy
-    fw[ua] += na * fx
-    fw[ua + 1] += na * fy
-    fw[ub] += nb * fx
-    fw[ub + 1] += nb * fy
+def _store_segment(fw, fa, fb, fua, fub, ax, ay, bx, by):
+    """Store a segment's *negative* forces on its lower nodes a, b (ax, ay, bx,
+    by) into its force slots, and their opposite on the upper nodes."""
+    fw[fa] = ax
+    fw[fa + 1] = ay
+    fw[fb] = bx
+    fw[fb + 1] = by
+    fw[fua] = -ax
+    fw[fua + 1] = -ay
+    fw[fub] = -bx
+    fw[fub + 1] = -by
 
 
 def advance_points(advance, w, fw, geom, const, pts, dt):
@@ -42,21 +44,22 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
 
     ``w`` holds the gathered displacements at the end of the step; the jumps at
     the start of the step are in ``pts``.  Writes the *negative* nodal
-    interface forces into ``fw`` (they are added to ``K u``).  One piece: the
+    interface forces into ``fw``, each segment into its own slots (they are
+    added to ``K u`` by the nodes' owners).  One piece: the
     loop over points is the kernel's whole work, and the law's ``advance`` is
     inlined into it.
     """
-    seg_w, shape, wq = geom
+    seg, shape, wq = geom
     p_Tn0, p_Ts0, p_Cn, p_Cs, param_rows, param_index = const
     state, Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub = pts
-    fw[:] = 0.0
-    nseg = seg_w.shape[0]
+    nseg = seg.shape[0]
     ng = shape.shape[0]
     for e in range(nseg):
-        la = seg_w[e, 0]
-        lb = seg_w[e, 1]
-        ua = seg_w[e, 2]
-        ub = seg_w[e, 3]
+        la = seg[e, 0]
+        lb = seg[e, 1]
+        ua = seg[e, 2]
+        ub = seg[e, 3]
+        ax = ay = bx = by = 0.0  # the segment's negative forces on its lower nodes a, b
         for g in range(ng):
             q = e * ng + g
             na = shape[g, 0]
@@ -94,7 +97,13 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
             slip_rate[q] = sr
             fx = (ts_new - p_Ts0[q]) * wq[q]  # force on the lower plate, x1
             fy = -(tn_new - p_Tn0[q]) * wq[q]  # force on the lower plate, x2
-            _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy)
+            ax -= na * fx
+            ay -= na * fy
+            bx -= nb * fx
+            by -= nb * fy
+        # one store per slot (writing each Gauss point's share into ``fw`` at
+        # offsets other than the read ones stops numba 0.56 caching the kernel)
+        _store_segment(fw, seg[e, 4], seg[e, 5], seg[e, 6], seg[e, 7], ax, ay, bx, by)
 
 
 #: ``advance_points`` compiled per ``advance`` it is called with, without
@@ -134,15 +143,20 @@ def kernel_for(law):
 
 @numba.njit(cache=True)
 def spring_kernel(w, fw, geom, Cn, Cs):
-    """``fw = K_int w`` for the linear interface springs (stability estimate)."""
-    seg_w, shape, wq = geom
-    fw[:] = 0.0
+    """``fw = K_int w`` for the linear interface springs (stability estimate),
+    each segment into its own force slots."""
+    seg, shape, wq = geom
     ng = shape.shape[0]
-    for e in range(seg_w.shape[0]):
-        la, lb, ua, ub = seg_w[e, 0], seg_w[e, 1], seg_w[e, 2], seg_w[e, 3]
+    for e in range(seg.shape[0]):
+        la, lb, ua, ub = seg[e, 0], seg[e, 1], seg[e, 2], seg[e, 3]
+        ax = ay = bx = by = 0.0
         for g in range(ng):
             q = e * ng + g
             na, nb = shape[g, 0], shape[g, 1]
             fx = Cs[q] * wq[q] * (na * (w[ua] - w[la]) + nb * (w[ub] - w[lb]))
             fy = Cn[q] * wq[q] * (na * (w[ua + 1] - w[la + 1]) + nb * (w[ub + 1] - w[lb + 1]))
-            _add_pair_force(fw, la, lb, ua, ub, na, nb, fx, fy)
+            ax -= na * fx
+            ay -= na * fy
+            bx -= nb * fx
+            by -= nb * fy
+        _store_segment(fw, seg[e, 4], seg[e, 5], seg[e, 6], seg[e, 7], ax, ay, bx, by)

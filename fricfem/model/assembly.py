@@ -2,6 +2,9 @@
 dofs and weights, and the stable step from λmax of M⁻¹(K + K_int).
 
 Linear triangles (P1 vector space), lumped (row-sum) mass, as in the paper.
+K, the mass and the edge weights are summed by fricfem in the grid's order
+(:mod:`.numbering`), not through dolfinx's local assembly, so that they have
+the same bits on any number of ranks.
 The stable step of the explicit central differences is ``2/√λmax`` with λmax
 from a power iteration that includes the interface springs
 (:func:`max_eigenvalue`); the run's step is ``dt_safety`` times it, rounded
@@ -14,9 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import ufl
 from dolfinx import fem
-from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from .grid import TAGS
@@ -27,32 +28,125 @@ def function_space(msh):
     return fem.VectorFunctionSpace(msh, ("Lagrange", 1))
 
 
-def stiffness(V, material: Material) -> PETSc.Mat:
-    """Assemble ``K`` (AIJ with I-node kernels off: ~3× faster MatMult here)."""
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    mu, lmbda = material.mu, material.lmbda
+def element_blocks(x, cells, material: Material) -> np.ndarray:
+    """2×2 stiffness blocks of linear triangles, float64[n_cells, 3, 3, 4] in
+    (K_xx, K_xy, K_yx, K_yy) order [N/m per m thickness]:
+    K_ab = A [[(λ+2μ) b_a b_b + μ c_a c_b, λ b_a c_b + μ c_a b_b],
+              [λ c_a b_b + μ b_a c_b, (λ+2μ) c_a c_b + μ b_a b_b]],
+    b, c the shape-function gradients, A the area (the form ∫ σ(u):ε(v) dx
+    of the P1 vector space, in closed form)."""
+    pa, pb, pc = x[cells[:, 0]], x[cells[:, 1]], x[cells[:, 2]]
+    det = (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pc[:, 0] - pa[:, 0]) * (pb[:, 1] - pa[:, 1])
+    b = np.stack([pb[:, 1] - pc[:, 1], pc[:, 1] - pa[:, 1], pa[:, 1] - pb[:, 1]], axis=1) / det[:, None]
+    c = np.stack([pc[:, 0] - pb[:, 0], pa[:, 0] - pc[:, 0], pb[:, 0] - pa[:, 0]], axis=1) / det[:, None]
+    area = 0.5 * det
+    lam, mu = material.lmbda, material.mu
+    bb = b[:, :, None] * b[:, None, :]
+    cc = c[:, :, None] * c[:, None, :]
+    bc = b[:, :, None] * c[:, None, :]  # b_a c_b
+    cb = c[:, :, None] * b[:, None, :]  # c_a b_b
+    blocks = np.stack([(lam + 2 * mu) * bb + mu * cc, lam * bc + mu * cb, lam * cb + mu * bc,
+                       (lam + 2 * mu) * cc + mu * bb], axis=-1)
+    return blocks * area[:, None, None, None]
 
-    def eps(w):
-        return ufl.sym(ufl.grad(w))
 
-    def sigma(w):
-        return 2.0 * mu * eps(w) + lmbda * ufl.tr(eps(w)) * ufl.Identity(2)
+def _sum_in_order(keys, values) -> tuple:
+    """Group equal ``keys`` (int64[n, k], already sorted) and sum each group's
+    ``values`` (float64[n, m]) one after the other in their order: (first row of
+    each group, sums float64[n_groups, m]).  The same groups give the same bits
+    on any rank (the canonical order of the sums)."""
+    if len(keys) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, values.shape[1]))
+    new = np.ones(len(keys), dtype=bool)
+    new[1:] = (keys[1:] != keys[:-1]).any(axis=1)
+    start = np.flatnonzero(new)
+    group = np.cumsum(new) - 1
+    slot = np.arange(len(keys)) - start[group]
+    padded = np.zeros((len(start), int(slot.max()) + 1, values.shape[1]))
+    padded[group, slot] = values
+    acc = padded[:, 0].copy()
+    for k in range(1, padded.shape[1]):
+        acc = acc + padded[:, k]  # adding a padding zero changes nothing
+    return start, acc
 
-    a = fem.form(ufl.inner(sigma(u), eps(v)) * ufl.dx)
-    K = fem_petsc.create_matrix(a)
+
+def canonical_rows(num, material: Material) -> tuple:
+    """This rank's rows of K in the grid's order, summed over their cells in
+    grid-cell order, so that every entry has the same bits on any number of
+    ranks.  Returns (rows int64[n_owned + 1] block-row pointers in local block
+    order, cols int64[n_blocks] grid nodes, increasing within a row, vals
+    float64[n_blocks, 4] (K_xx, K_xy, K_yx, K_yy))."""
+    own = np.zeros(len(num.x), dtype=bool)
+    own[num.owned_nodes] = True
+    sel = np.flatnonzero(own[num.cells].any(axis=1))  # cells touching an owned node, in grid order
+    cells = num.cells[sel]
+    ke = element_blocks(num.x, cells, material)
+    R = np.repeat(cells, 3, axis=1).ravel()  # (a, b) pairs: a repeated, b tiled
+    C = np.tile(cells, (1, 3)).ravel()
+    E = np.repeat(sel, 9)
+    V = ke.reshape(-1, 4)
+    keep = own[R]
+    R, C, E, V = R[keep], C[keep], E[keep], V[keep]
+    local = num.block_of_node[R]
+    order = np.lexsort((E, C, local))
+    start, vals = _sum_in_order(np.column_stack([local[order], C[order]]), V[order])
+    row = local[order][start]
+    cols = C[order][start]
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=num.n_owned))])
+    return ptr, cols, vals
+
+
+def canonical_mass(num, rho: float) -> np.ndarray:
+    """Row-sum lumped mass of the owned dofs, ∫ ρ N_i dx = Σ_cells ρ A/3 over
+    each node's cells in grid-cell order (both components) [kg/m]."""
+    own = np.zeros(len(num.x), dtype=bool)
+    own[num.owned_nodes] = True
+    sel = np.flatnonzero(own[num.cells].any(axis=1))
+    cells = num.cells[sel]
+    pa, pb, pc = num.x[cells[:, 0]], num.x[cells[:, 1]], num.x[cells[:, 2]]
+    det = (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pc[:, 0] - pa[:, 0]) * (pb[:, 1] - pa[:, 1])
+    share = rho * (0.5 * det) / 3.0
+    R = cells.ravel()
+    E = np.repeat(sel, 3)
+    V = np.repeat(share, 3)[:, None]
+    keep = own[R]
+    local = num.block_of_node[R[keep]]
+    order = np.lexsort((E[keep], local))
+    start, m = _sum_in_order(local[order][:, None], V[keep][order])
+    mass = np.empty(num.n_owned)
+    mass[local[order][start]] = m[:, 0]
+    return np.repeat(mass, 2)
+
+
+def petsc_matrix(num, rows: tuple, comm) -> PETSc.Mat:
+    """K as a PETSc AIJ matrix with the canonical values (I-node kernels off:
+    ~3× faster MatMult here), the layout of the displacement vector: the bare
+    product the benchmarks compare against, and the eigenvalue estimate."""
+    ptr, cols, vals = rows
+    n = num.n_owned
+    counts = np.diff(ptr)
+    gcol = num.global_block[cols]
+    # scalar rows 2I, 2I+1: columns (2J, 2J+1) of each block
+    rp = np.concatenate([[0], np.cumsum(np.repeat(2 * counts, 2))]).astype(PETSc.IntType)
+    jj = np.empty(4 * len(cols), dtype=PETSc.IntType)
+    vv = np.empty(4 * len(cols))
+    block_of = np.repeat(np.arange(n), counts)
+    pos = 2 * ptr[block_of] * 2  # start of the block row's scalar rows in jj (row 2I starts at 4 ptr[I])
+    k = np.arange(len(cols)) - ptr[block_of]
+    c2 = 2 * counts[block_of]
+    for r in range(2):
+        base = pos + r * c2 + 2 * k
+        jj[base] = 2 * gcol
+        jj[base + 1] = 2 * gcol + 1
+        vv[base] = vals[:, 2 * r]
+        vv[base + 1] = vals[:, 2 * r + 1]
+    rowid = np.repeat(np.arange(2 * n), np.diff(rp))
+    order = np.lexsort((jj, rowid))  # PETSc wants each row's columns sorted
+    jj, vv = jj[order], vv[order]
+    K = PETSc.Mat().createAIJ(((2 * n, PETSc.DETERMINE), (2 * n, PETSc.DETERMINE)), csr=(rp, jj, vv), comm=comm)
     K.setOption(PETSc.Mat.Option.USE_INODES, False)
-    fem_petsc.assemble_matrix(K, a)
     K.assemble()
     return K
-
-
-def lumped_mass(V, rho: float) -> np.ndarray:
-    """Row-sum lumped mass of the owned dofs: ∫ ρ N_i dx for each component."""
-    v = ufl.TestFunction(V)
-    ones = fem.Constant(V.mesh, PETSc.ScalarType((1.0, 1.0)))
-    b = fem_petsc.assemble_vector(fem.form(rho * ufl.inner(ones, v) * ufl.dx))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    return b.array.copy()
 
 
 def impact_dofs(V, facet_tags, names) -> np.ndarray:
@@ -65,34 +159,38 @@ def impact_dofs(V, facet_tags, names) -> np.ndarray:
     return np.sort(dofs[dofs < n_owned]).astype(np.int32)
 
 
-def edge_weights(V, facet_tags, names, dofs) -> np.ndarray:
-    """A_i = ∫ N_i ds over the facets tagged ``names`` at the x1 dofs ``dofs`` [m per m]."""
-    ds = ufl.Measure("ds", domain=V.mesh, subdomain_data=facet_tags)
-    e1 = fem.Constant(V.mesh, PETSc.ScalarType((1.0, 0.0)))
-    v = ufl.TestFunction(V)
-    form = sum((ufl.inner(e1, v) * ds(TAGS[n]) for n in names[1:]), ufl.inner(e1, v) * ds(TAGS[names[0]]))
-    b = fem_petsc.assemble_vector(fem.form(form))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    return b.array[dofs].copy()
+def edge_weights(num, names, dofs) -> np.ndarray:
+    """A_i = ∫ N_i ds over the grid edges tagged ``names`` at the owned x1 dofs
+    ``dofs`` [m per m]: half of each edge's length to each of its nodes, summed
+    in grid-edge order."""
+    tags = [TAGS[n] for n in names]
+    edges = num.facets[np.isin(num.facet_tags, tags)]
+    length = np.linalg.norm(num.x[edges[:, 1]] - num.x[edges[:, 0]], axis=1)
+    R = edges.ravel()
+    E = np.repeat(np.arange(len(edges)), 2)
+    order = np.lexsort((E, R))
+    start, w = _sum_in_order(R[order][:, None], np.repeat(0.5 * length, 2)[order][:, None])
+    weight = np.zeros(len(num.x))
+    weight[R[order][start]] = w[:, 0]
+    return weight[num.node_of_block[np.asarray(dofs) // 2]]
 
 
-def _coordinate_noise(V) -> np.ndarray:
-    """A deterministic pseudo-random vector keyed on dof coordinates (identical on any
-    number of ranks), to start the power iteration."""
-    n = V.dofmap.index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n, :2]
+def _coordinate_noise(num) -> np.ndarray:
+    """A deterministic pseudo-random vector keyed on the grid coordinates of the
+    owned dofs (identical on any number of ranks), to start the power iteration."""
+    x = num.x[num.owned_nodes]
     h = np.sin(x[:, 0] * 12989.8 + x[:, 1] * 78233.0) * 43758.5453
     h = h - np.floor(h)
     return np.column_stack([h, 1.0 - h]).ravel() - 0.5
 
 
-def max_eigenvalue(K, mass, interface, V, iterations=500, rtol=1e-8) -> float:
+def max_eigenvalue(K, mass, interface, num, iterations=500, rtol=1e-8) -> float:
     """λmax of M⁻¹(K + K_int) by power iteration with the Rayleigh quotient
     x·(K + K_int)x / x·Mx (which converges quadratically)."""
     x = K.createVecRight()
     y = K.createVecRight()
     mx = K.createVecRight()
-    x.array[:] = _coordinate_noise(V)
+    x.array[:] = _coordinate_noise(num)
     lam = 0.0
     for _ in range(iterations):
         K.mult(x, y)

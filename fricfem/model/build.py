@@ -1,7 +1,8 @@
 """Everything a run assembles once, in one record (:class:`Model`), from a scene
 or from its parts.
 
-    scene ─► mesh (model.mesh) ─► K, lumped mass (model.assembly)
+    scene ─► mesh (model.mesh) ─► grid numbering (model.numbering)
+                                ─► K, lumped mass in the grid's order (model.assembly)
                                 ─► interface geometry and points (model.interface)
                                 ─► struck edge (Impact) ─► λmax, dt ─► the fused step
 
@@ -17,12 +18,13 @@ import numpy as np
 from petsc4py import PETSc
 
 from .. import friction
-from ..step.fused import FusedBulk
+from ..step.fused import FusedBulk, block_rows
 from ..step.interface import Interface
 from . import interface as iface_mod
 from . import mesh as mesh_mod
-from .assembly import (_per_point, edge_weights, function_space, impact_dofs, lumped_mass, max_eigenvalue,
-                       round_down, stiffness)
+from .assembly import (_per_point, canonical_mass, canonical_rows, edge_weights, function_space, impact_dofs,
+                       max_eigenvalue, petsc_matrix, round_down)
+from .numbering import Numbering, numbering
 from .loading import ImpactPulse
 from .material import Material
 
@@ -61,6 +63,7 @@ class Model(NamedTuple):
     dt_crit: float  # 2/√λmax [s]
     comm: object
     bulk: FusedBulk  # the one-pass step
+    num: Numbering  # this rank's dofs against the grid
 
 
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
@@ -79,9 +82,11 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     """
     comm = pm.mesh.comm
     V = function_space(pm.mesh)
-    K = stiffness(V, material)
-    mass = lumped_mass(V, material.rho)
-    geom = iface_mod.build_geometry(V, pm.facet_tags, K.createVecRight())
+    num = numbering(pm, V)
+    rows = canonical_rows(num, material)
+    K = petsc_matrix(num, rows, comm)
+    mass = canonical_mass(num, material.rho)
+    geom = iface_mod.build_geometry(num, K.createVecRight(), comm)
     x1 = geom.x1
     points = iface_mod.make_points(
         law, _per_point(params, x1, len(law.params)), len(x1), sigma0,
@@ -91,15 +96,15 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     dofs = impact_dofs(V, pm.facet_tags, impact_tags)
     impact = Impact(dofs, mass[dofs].copy(), pulse, np.zeros(len(dofs)), np.zeros(len(dofs)))
     if not pulse.prescribed and len(impact_tags):
-        area = edge_weights(V, pm.facet_tags, impact_tags, dofs)
+        area = edge_weights(num, impact_tags, dofs)
         z_force, z_damp = pulse.impedances(material.rho * material.c_l)
         impact = impact._replace(force=z_force * area, damp=z_damp * area)
-    lam = max_eigenvalue(K, mass, interface, V)
+    lam = max_eigenvalue(K, mass, interface, num)
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
-    bulk = FusedBulk(K, dt / mass, dt, interface, impact)
-    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk)
+    bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm)
+    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk, num)
 
 
 def impact_tags(scene) -> tuple:

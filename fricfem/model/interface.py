@@ -15,12 +15,14 @@ forces carry the traction increments: the lower plate receives
 (T_s − T_s0) e1 − (T_n − T_n0) e2 and the upper plate the opposite.
 
 MPI.  The plates are meshed separately, so the two nodes of a pair are never
-neighbours in the dolfinx mesh and (dolfinx's partitioner puts one plate on each
-of two ranks) usually live on different ranks.  Segments are dealt out to ranks
-in blocks, round-robin along x1 (each rank gets a share of the sliding region);
-each rank gathers the displacements of the nodes
-its segments touch with one PETSc scatter, runs the kernel, and adds the nodal
-forces back with the reverse scatter.  No ghosts are involved.
+neighbours in the mesh and (the partition puts one plate on each of two ranks)
+usually live on different ranks.  Segments are dealt out to ranks in blocks,
+round-robin along x1 (each rank gets a share of the sliding region); each rank
+gathers the displacements of the nodes its segments touch with one PETSc
+scatter, runs the kernel, and sends each segment's nodal forces to the nodes'
+owners into two slots a node (the segment on its left, the one on its right),
+which the owner adds in a fixed order.  No ghosts are involved, and nothing
+depends on the number of ranks.
 
 Here: the geometry (:func:`build_geometry`) and the per-point data
 (:class:`Points`, :func:`make_points`); the numba loop over the points is
@@ -56,10 +58,20 @@ class Geometry(NamedTuple):
     seg_w     int32[n_seg, 4]    offsets into the gathered work vector of the x1
                                  component of (lower a, lower b, upper a, upper b);
                                  the x2 component is the next entry
+    seg_f     int32[n_seg, 4]    offsets into ``force`` of the segment's own force
+                                 slots for the same four nodes (8 entries a segment)
     scatter   PETSc.Scatter      global displacement → work vector
+    to_right  PETSc.Scatter      force slots of each segment's left nodes (a) → ``right``
+    to_left   PETSc.Scatter      force slots of each segment's right nodes (b) → ``left``
     work      PETSc.Vec          sequential, gathered displacements
-    force     PETSc.Vec          sequential, nodal forces before the reverse scatter
+    force     PETSc.Vec          sequential, the segments' nodal forces (8 a segment)
+    right     PETSc.Vec          global layout: each node's force from the segment on its right
+    left      PETSc.Vec          global layout: each node's force from the segment on its left
     comm      MPI communicator of the mesh
+
+    A node's interface force is left + right, added in that order on its owner:
+    every node gets each part from exactly one segment (INSERT, no summation
+    across ranks), so the forces have the same bits on any number of ranks.
     """
 
     x1_nodes: np.ndarray
@@ -68,52 +80,46 @@ class Geometry(NamedTuple):
     wq: np.ndarray
     shape: np.ndarray
     seg_w: np.ndarray
+    seg_f: np.ndarray
     scatter: object
+    to_right: object
+    to_left: object
     work: object
     force: object
+    right: object
+    left: object
     comm: object
 
 
-def _owned_nodes(V, facet_tags, name):
-    """(x1, x2, global block index) of the owned dof nodes on the facets tagged ``name``."""
-    msh = V.mesh
-    facets = facet_tags.indices[facet_tags.values == TAGS[name]]
-    from dolfinx import fem
-
-    blocks = fem.locate_dofs_topological(V, msh.topology.dim - 1, facets)
-    imap = V.dofmap.index_map
-    blocks = blocks[blocks < imap.size_local]
-    x = V.tabulate_dof_coordinates()[blocks]
-    glob = imap.local_to_global(blocks.astype(np.int32))
-    return x[:, 0], x[:, 1], glob
+def interface_nodes(num, name: str) -> np.ndarray:
+    """Grid nodes on the edges tagged ``name``, sorted by x1."""
+    nodes = np.unique(num.facets[num.facet_tags == TAGS[name]])
+    return nodes[np.argsort(num.x[nodes, 0], kind="stable")]
 
 
-def build_geometry(V, facet_tags, template: PETSc.Vec) -> Geometry:
-    """Pair the interface nodes across ranks and set up the exchange.
+def _slot_scatter(force, template, slots, gblocks) -> PETSc.Scatter:
+    """Scatter from ``force`` entries ``slots`` (x1 component; x2 is the next)
+    to the global dofs of blocks ``gblocks``."""
+    src = (slots[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+    dst = (2 * gblocks[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+    return PETSc.Scatter().create(force, PETSc.IS().createGeneral(src, comm=PETSc.COMM_SELF),
+                                  template, PETSc.IS().createGeneral(dst, comm=PETSc.COMM_SELF))
 
-    ``template`` is a vector with the layout of the global displacement.
-    """
-    comm = V.mesh.comm
-    bs = V.dofmap.index_map_bs
-    sides = {}
-    for side in ("lower", "upper"):
-        x1, x2, glob = _owned_nodes(V, facet_tags, f"interface_{side}")
-        data = comm.allgather(np.column_stack([x1, x2, glob.astype(np.float64)]))
-        data = np.vstack(data)
-        data = data[np.argsort(data[:, 0], kind="stable")]
-        sides[side] = data
-    lo, up = sides["lower"], sides["upper"]
+
+def build_geometry(num, template: PETSc.Vec, comm) -> Geometry:
+    """Pair the interface nodes of the grid numbering ``num``
+    (:mod:`fricfem.model.numbering`) and set up the exchange.  ``template`` is
+    a vector with the layout of the global displacement.  Collective."""
+    lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     if len(lo) < 2 or len(lo) != len(up):
         raise RuntimeError(
             f"interface: {len(lo)} lower and {len(up)} upper nodes; the mesh needs matching "
             "interface node rows on both plates"
         )
-    scale = max(1.0, float(np.abs(lo[:, 0]).max()))
-    if np.abs(lo[:, 0] - up[:, 0]).max() > 1e-9 * scale or np.abs(lo[:, 1]).max() > 1e-9 * scale:
+    if not (np.array_equal(num.x[lo, 0], num.x[up, 0]) and not num.x[lo, 1].any() and not num.x[up, 1].any()):
         raise RuntimeError("interface: lower and upper interface nodes do not coincide pairwise")
-    x1n = lo[:, 0].copy()
-    g_lo = lo[:, 2].astype(np.int64)
-    g_up = up[:, 2].astype(np.int64)
+    x1n = num.x[lo, 0].copy()
+    g_lo, g_up = num.global_block[lo], num.global_block[up]
 
     # deal segments out in blocks of SEG_BLOCK, round-robin along x1, so that every
     # rank gets a share of the sliding region near the struck edge (load balance)
@@ -122,23 +128,32 @@ def build_geometry(V, facet_tags, template: PETSc.Vec) -> Geometry:
     nodes = np.unique(np.concatenate([segs, segs + 1]))
     # gathered work vector: [lower nodes, upper nodes], 2 comps each
     gnodes = np.concatenate([g_lo[nodes], g_up[nodes]])
-    gidx = (bs * gnodes[:, None] + np.arange(bs)[None, :]).ravel().astype(PETSc.IntType)
+    gidx = (2 * gnodes[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
     n_loc = len(nodes)
     a = np.searchsorted(nodes, segs)
     b = np.searchsorted(nodes, segs + 1)
-    seg_w = np.column_stack([a, b, n_loc + a, n_loc + b]).astype(np.int32) * bs
+    seg_w = np.column_stack([a, b, n_loc + a, n_loc + b]).astype(np.int32) * 2
+    seg_f = (8 * np.arange(len(segs))[:, None] + np.array([0, 2, 4, 6])[None, :]).astype(np.int32)
 
     work = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
-    force = work.duplicate()
-    is_from = PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF)
-    scatter = PETSc.Scatter().create(template, is_from, work, None)
+    scatter = PETSc.Scatter().create(template, PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF), work, None)
+    force = PETSc.Vec().createSeq(8 * len(segs), comm=PETSc.COMM_SELF)
+    right, left = template.duplicate(), template.duplicate()
+    right.set(0.0)
+    left.set(0.0)
+    # the segment's left nodes (a, lower and upper) get its force as their "right" part
+    to_right = _slot_scatter(force, right, np.concatenate([seg_f[:, 0], seg_f[:, 2]]),
+                             np.concatenate([g_lo[segs], g_up[segs]]))
+    to_left = _slot_scatter(force, left, np.concatenate([seg_f[:, 1], seg_f[:, 3]]),
+                            np.concatenate([g_lo[segs + 1], g_up[segs + 1]]))
 
     shape = np.column_stack([0.5 * (1 - GAUSS_XI), 0.5 * (1 + GAUSS_XI)])
     xa, xb = x1n[segs], x1n[segs + 1]
     half = 0.5 * (xb - xa)
     x1 = (0.5 * (xa + xb)[:, None] + half[:, None] * GAUSS_XI[None, :]).ravel()
     wq = (half[:, None] * GAUSS_W[None, :]).ravel()
-    return Geometry(x1n, segs, x1, wq, shape, seg_w, scatter, work, force, comm)
+    return Geometry(x1n, segs, x1, wq, shape, seg_w, seg_f, scatter, to_right, to_left, work, force, right, left,
+                    comm)
 
 
 class Points(NamedTuple):

@@ -22,9 +22,9 @@ that need more than the plain update are listed once, sorted ("special"):
   does the work ``R^n (u^{n+1} − u^{n−1})/2``, as the two-pass step
   (``tests/reference/two_pass.py``) has it (or, for a traction load, the edge force
   enters the update; see :func:`_special_update`);
-* interface nodes: a short pre-pass puts ``K u^n`` into the vector ``g`` at
-  these rows, and :meth:`fricfem.step.interface.Interface.add_forces` adds the negative interface
-  forces there through its reverse scatter;
+* interface nodes: a short pre-pass keeps ``K u^n`` at these rows, and
+  :meth:`fricfem.step.interface.Interface.advance` delivers the negative
+  interface forces from the segment on each node's left and on its right;
 * MPI boundary nodes: rows with columns owned by another rank, whose
   off-rank displacements come through one more PETSc scatter.
 
@@ -33,20 +33,19 @@ Order of a step::
     begin gathering the off-rank displacements, and the interface's
     sweep every row but the interface and MPI boundary rows ("deferred")
     end the gather of off-rank displacements (it travelled during the sweep)
-    pre-pass; Interface.add_forces (end its gather, kernel, reverse scatter into g)
+    pre-pass; Interface.advance (end its gather, kernel, send the force slots)
     update the deferred rows
 
-The sweep neither reads nor writes ``g`` and leaves u^n in place, so the
-interface works after it on the same u^n, and both gathers travel while the
-rows are swept.
+The sweep leaves u^n in place, so the interface works after it on the same
+u^n, and both gathers travel while the rows are swept.
 
-Round-off.  Each row is summed in the order of PETSc's AIJ product (columns
-in order; on a boundary row the owned columns first, then the off-rank ones),
-and ``f`` at the interface rows is accumulated as ``(K u) + forces`` in the
-order of the reverse scatter, so the step reproduces the two-pass step
-(``K.mult``, :meth:`Interface.add_forces`, update) bit for bit (checked on 1
-to 4 ranks).  Only ``u · K u`` (energy) and the reaction work are summed in
-another order.
+Round-off.  K's entries are summed over their cells in the grid's order, each
+row of ``K u`` over its blocks in the grid's node order, and an interface
+row's force is ``(K u) + left + right`` in that order
+(:mod:`fricfem.model.numbering`): every number the step makes has the same
+bits on any number of ranks (tested on 1 and 2 ranks in the suite, 1 to 4 in
+``benchmarks/rank_reproducibility.py``).  Only ``u · K u`` (energy) and the
+reaction work are summed across ranks in another order.
 
 The numba kernels are :mod:`fricfem.kernels.bulk`; here is what builds their
 data once (:func:`block_rows`, :func:`special_nodes`) and :class:`FusedBulk`,
@@ -63,15 +62,17 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..kernels import bulk
+from ..kernels.cache import ensure_fresh
 
 class BlockRows(NamedTuple):
     """This rank's rows of ``K`` as block CSR with 2×2 blocks.
 
     ptr    uint32[n_nodes + 1]  block-row pointers (owned nodes)
     col    uint32[n_blocks]     block column: an owned node ``< n_nodes``, or
-                                ``n_nodes + k`` for the k-th gathered off-rank node
+                                ``n_nodes + k`` for the k-th gathered off-rank node;
+                                in grid order within a row (the order of the sums)
     val    float64[4 n_blocks]  (K_00, K_01, K_10, K_11) of each block [N/m², per m thickness]
-    ghost  int64[n_ghost]       global node index of each gathered off-rank node (sorted)
+    ghost  int64[n_ghost]       global block index of each gathered off-rank node (grid order)
 
     The indices are unsigned so that numba's gathers ``x[2 col[p]]`` carry no
     negative-index wrap-around test: that alone makes the sweep ~1.5× faster.
@@ -100,55 +101,38 @@ class Special(NamedTuple):
     preloaded: np.ndarray
 
 
-def block_rows(K: PETSc.Mat) -> BlockRows:
-    """Block CSR of the owned rows of ``K`` (AIJ whose layout has block size 2).
-
-    Raises ``ValueError`` unless rows ``2I`` and ``2I + 1`` share their columns
-    and the columns come in pairs ``(2J, 2J + 1)``.
-    """
-    r0, r1 = K.getOwnershipRange()
-    if r0 % 2 or r1 % 2:
-        raise ValueError(f"fused: the ownership range [{r0}, {r1}) of K splits a node")
-    ip, jj, vv = K.getValuesCSR()
-    counts = np.diff(np.asarray(ip, dtype=np.int64))
-    jj = np.asarray(jj, dtype=np.int64)
-    n_nodes = (r1 - r0) // 2
-    even_row = np.repeat(np.arange(len(counts)) % 2 == 0, counts)
-    c0, c1 = jj[even_row], jj[~even_row]
-    ok = (
-        np.array_equal(counts[0::2], counts[1::2])
-        and not (counts % 2).any()
-        and np.array_equal(c0, c1)
-        and not (c0[0::2] % 2).any()
-        and np.array_equal(c0[1::2], c0[0::2] + 1)
-    )
-    if not ok:
-        raise ValueError("fused: K is not made of 2x2 node blocks (a P1 vector space is expected)")
-    gnode = c0[0::2] // 2
-    if len(gnode) >= 2**32:
-        raise ValueError(f"fused: {len(gnode)} blocks on one rank; at most 2**32 - 1 are supported")
-    val = np.column_stack([np.asarray(vv[even_row]).reshape(-1, 2), np.asarray(vv[~even_row]).reshape(-1, 2)])
-    ptr = np.concatenate([[0], np.cumsum(counts[0::2] // 2)]).astype(np.uint32)
-    owned = (gnode >= r0 // 2) & (gnode < r1 // 2)
-    ghost = np.unique(gnode[~owned])
-    col = np.empty(len(gnode), dtype=np.uint32)
-    col[owned] = gnode[owned] - r0 // 2
-    col[~owned] = n_nodes + np.searchsorted(ghost, gnode[~owned])
-    return BlockRows(ptr, col, np.ascontiguousarray(val.ravel()), ghost)
+def block_rows(num, rows) -> BlockRows:
+    """Block CSR of this rank's rows from the canonical rows of
+    :func:`fricfem.model.assembly.canonical_rows` (columns in grid order)."""
+    ptr, cols, vals = rows
+    n = num.n_owned
+    local = num.block_of_node[cols]
+    owned = (local >= 0) & (local < n)
+    ghost_nodes = np.unique(cols[~owned])
+    if len(cols) >= 2**32:
+        raise ValueError(f"fused: {len(cols)} blocks on one rank; at most 2**32 - 1 are supported")
+    col = np.empty(len(cols), dtype=np.uint32)
+    col[owned] = local[owned]
+    col[~owned] = n + np.searchsorted(ghost_nodes, cols[~owned])
+    return BlockRows(np.asarray(ptr, dtype=np.uint32), col, np.ascontiguousarray(vals.ravel()),
+                     num.global_block[ghost_nodes])
 
 
 def interface_nodes(interface, template: PETSc.Vec) -> np.ndarray:
-    """Owned nodes (local indices) that receive interface forces: ones sent back
-    through the interface's reverse scatter mark them."""
+    """Owned nodes (local indices) that receive interface forces: ones sent
+    through the interface's force slots mark them."""
     if interface is None:
         return np.zeros(0, dtype=np.int64)
     geom = interface.geometry
     ones = geom.force.duplicate()
     ones.set(1.0)
-    mark = template.duplicate()
-    mark.set(0.0)
-    geom.scatter.scatter(ones, mark, PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
-    return np.unique(np.flatnonzero(mark.array_r) // 2)
+    marks = []
+    for scatter in (geom.to_right, geom.to_left):
+        mark = template.duplicate()
+        mark.set(0.0)
+        scatter.scatter(ones, mark, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+        marks.append(np.flatnonzero(mark.array_r) // 2)
+    return np.unique(np.concatenate(marks))
 
 
 def _has_off_rank(rows: BlockRows, nodes: np.ndarray, n_nodes: int) -> np.ndarray:
@@ -177,7 +161,7 @@ def special_nodes(rows: BlockRows, impact_dofs: np.ndarray, iface_nodes: np.ndar
 class FusedBulk:
     """The fused step of one model: built once, one verb (:meth:`advance`).
 
-    >>> bulk = FusedBulk(K, dt / mass, dt, interface, impact)
+    >>> bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, template, comm)
     >>> uku, work = bulk.advance(state)   # state.u_next <- u^{n+1}, state.v <- v^{n+½}
 
     Skipping what the motion has not reached.  Started from rest, a row whose
@@ -194,10 +178,13 @@ class FusedBulk:
     hand must be woken (``state.wake()``).
     """
 
-    def __init__(self, K: PETSc.Mat, dt_minv, dt: float, interface, impact):
-        """``interface`` the model's :class:`fricfem.step.interface.Interface` or None
-        (bulk alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
-        masses, pulse, traction coefficients).  Collective."""
+    def __init__(self, rows: BlockRows, dt_minv, dt: float, interface, impact, template: PETSc.Vec, comm):
+        """``rows`` this rank's block rows of K (:func:`block_rows`); ``interface``
+        the model's :class:`fricfem.step.interface.Interface` or None (bulk
+        alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
+        masses, pulse, traction coefficients); ``template`` a vector with the
+        displacement's layout.  Collective."""
+        ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.dt = float(dt)
         dt_minv = np.asarray(dt_minv, dtype=np.float64)
         if not np.array_equal(dt_minv[0::2], dt_minv[1::2]):
@@ -209,22 +196,20 @@ class FusedBulk:
         self.edge = (np.ascontiguousarray(impact.mass, dtype=np.float64),
                      np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64),
                      np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
-        self.rows = block_rows(K)
-        self.g = K.createVecRight()  # see Special.preloaded; zero between steps
-        self.g.set(0.0)
-        self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, self.g))
+        self.rows = rows
+        self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, template))
         self.n_nodes = len(self.rows.ptr) - 1
-        self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the preloaded rows, see kernels.bulk.preload
+        self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the interface rows, see kernels.bulk.preload
+        self.no_force = np.zeros(2 * self.n_nodes)  # the left / right forces without an interface
         self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
         self._special = tuple(self.special)
-        comm = K.getComm().tompi4py()
         self.ghost_scatter = None
         self.ug = np.zeros(0)
         if comm.allreduce(len(self.rows.ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
             gdofs = (2 * self.rows.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
             self.ghost_vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
             is_from = PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF)
-            self.ghost_scatter = PETSc.Scatter().create(self.g, is_from, self.ghost_vec, None)
+            self.ghost_scatter = PETSc.Scatter().create(template, is_from, self.ghost_vec, None)
             self.ug = self.ghost_vec.array
 
     def activity(self, at_rest: bool) -> np.ndarray:
@@ -253,7 +238,8 @@ class FusedBulk:
         u1 = self.pulse.displacement(t + dt)
         load = (dt, u0, u1, (u1 - u0) / dt, self.pulse.sign * self.pulse.velocity(t))
         rows, special, edge = self._rows, self._special, self.edge
-        ua, una, va, ga = u.array_r, u_next.array, v.array, self.g.array
+        ua, una, va = u.array_r, u_next.array, v.array
+        gl = gr = self.no_force
         insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
         t0 = time.perf_counter()
         if self.ghost_scatter is not None:
@@ -261,16 +247,16 @@ class FusedBulk:
         if self.interface is not None:
             self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
-        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, ga, imp_prev, act)
+        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev, act)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         if self.interface is not None:
-            bulk.preload(rows, special, ua, self.ug, ga, self.sp_ku)
-            self.interface.add_forces(u, self.g, dt, started=True)  # g += −F_int(u^n)
+            bulk.preload(rows, special, ua, self.ug, self.sp_ku)
+            gl, gr = self.interface.advance(u, dt, started=True)  # −F_int(u^n), left and right parts
         t4 = time.perf_counter()
-        uku_d, work_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va, self.dt_minv, ga,
+        uku_d, work_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va, self.dt_minv, gl, gr,
                                             imp_prev, act, self.sp_ku)
         t5 = time.perf_counter()
         sec = state.seconds

@@ -14,14 +14,15 @@ from mpi4py import MPI
 from numba.core.errors import NumbaExperimentalFeatureWarning
 from petsc4py import PETSc
 
+from ..kernels.cache import ensure_fresh
 from ..kernels.interface import kernel_for, spring_kernel
 
 
 
 class Interface:
     """Interface geometry, point data and the friction law, with the verbs the
-    time loop needs: :meth:`begin_gather`, :meth:`add_forces`,
-    :meth:`add_spring_action` and :meth:`energy`."""
+    time loop needs: :meth:`begin_gather`, :meth:`advance` (and its two-pass
+    form :meth:`add_forces`), :meth:`add_spring_action` and :meth:`energy`."""
 
     def __init__(self, geometry, points, law):
         """``geometry`` and ``points``: :mod:`fricfem.model.interface` (Geometry, Points);
@@ -29,9 +30,10 @@ class Interface:
         self.geometry = geometry
         self.points = points
         self.law = law
+        ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.kernel = kernel_for(law)
         self._compiled = False  # the kernel's first call compiles (or loads) it
-        self._geom = (geometry.seg_w, geometry.shape, geometry.wq)  # the kernels' plain tuples
+        self._geom = (np.hstack([geometry.seg_w, geometry.seg_f]), geometry.shape, geometry.wq)  # plain tuples
         self._const = points.kernel_const()
         self._state = points.kernel_state()
 
@@ -40,20 +42,27 @@ class Interface:
         g.scatter.scatter(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
         return g.work.array
 
-    def _add_back(self, f: PETSc.Vec) -> None:
+    def _send(self) -> None:
+        """The segments' force slots to the nodes' owners (``geometry.left`` and ``right``)."""
         g = self.geometry
-        g.scatter.scatter(g.force, f, PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
+        insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
+        g.to_right.begin(g.force, g.right, insert, forward)
+        g.to_left.begin(g.force, g.left, insert, forward)
+        g.to_right.end(g.force, g.right, insert, forward)
+        g.to_left.end(g.force, g.left, insert, forward)
 
     def begin_gather(self, u: PETSc.Vec) -> None:
         """Start gathering the displacements ``u`` the interface needs (from other
-        ranks too); :meth:`add_forces` with ``started=True`` ends it."""
+        ranks too); :meth:`advance` with ``started=True`` ends it."""
         g = self.geometry
         g.scatter.begin(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
 
-    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, started: bool = False) -> None:
+    def advance(self, u: PETSc.Vec, dt: float, started: bool = False) -> tuple:
         """Advance every interface point to the end of the step whose end
-        displacement is ``u``, and add the negative interface forces into ``f``.
-        ``started``: :meth:`begin_gather` was called with ``u``."""
+        displacement is ``u``; returns the owned arrays (left, right) of the
+        *negative* interface forces at each node from the segment on its left
+        and on its right (a node's force is ``left + right``, in that order).
+        ``started``: :meth:`begin_gather` was called with ``u``.  Collective."""
         g = self.geometry
         if started:
             g.scatter.end(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
@@ -70,14 +79,23 @@ class Interface:
                 warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
                 self.kernel(w, g.force.array, self._geom, self._const, self._state, dt)
             self._compiled = True
-        self._add_back(f)
+        self._send()
+        return g.left.array_r, g.right.array_r
+
+    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float) -> None:
+        """:meth:`advance`, then ``f += left`` and ``f += right`` (the two-pass form)."""
+        self.advance(u, dt)
+        f.axpy(1.0, self.geometry.left)
+        f.axpy(1.0, self.geometry.right)
 
     def add_spring_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """``y += K_int x`` with the elastic interface springs."""
         g, p = self.geometry, self.points
         w = self._gather(x)
         spring_kernel(w, g.force.array, self._geom, p.Cn, p.Cs)
-        self._add_back(y)
+        self._send()
+        y.axpy(1.0, g.left)
+        y.axpy(1.0, g.right)
 
     def energy(self) -> dict:
         """Interface energies per unit thickness [J/m], summed over all ranks."""

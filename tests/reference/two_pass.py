@@ -1,6 +1,11 @@
-"""The two-pass explicit step: ``f = K u`` (PETSc), the interface forces added
-into ``f``, then the leapfrog update and the struck edge — the oracle the
-fused step (:mod:`fricfem.step.fused`) must reproduce bit for bit."""
+"""The two-pass explicit step: ``f = K u``, the interface forces added into
+``f``, then the leapfrog update and the struck edge — the oracle the fused
+step (:mod:`fricfem.step.fused`) must reproduce bit for bit.
+
+``K u`` is summed here in numpy, over each row's blocks in the grid order
+the fused sweep uses (:func:`canonical_product`), so the two agree to the
+bit; PETSc's ``K.mult`` sums the same numbers in another order.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +14,45 @@ import time
 import numba
 import numpy as np
 from mpi4py import MPI
+from petsc4py import PETSc
+
+
+def canonical_product(model, u, f) -> None:
+    """``f = K u``, each row summed block by block in the stored (grid) order,
+    the x-product of a block before its y-product, as the fused sweep does."""
+    rows, bulk = model.bulk.rows, model.bulk
+    n = len(rows.ptr) - 1
+    x = u.array_r
+    if bulk.ghost_scatter is not None:
+        bulk.ghost_scatter.scatter(u, bulk.ghost_vec, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+    xg = bulk.ug
+    ptr = rows.ptr.astype(np.int64)
+    col = rows.col.astype(np.int64)
+    val = rows.val.reshape(-1, 4)
+    counts = np.diff(ptr)
+    row = np.repeat(np.arange(n), counts)
+    slot = np.arange(len(col)) - ptr[row]
+    owned = col < n
+    x0 = np.where(owned, x[2 * np.minimum(col, n - 1)], 0.0)
+    x1 = np.where(owned, x[2 * np.minimum(col, n - 1) + 1], 0.0)
+    if len(xg):
+        g = 2 * np.maximum(col - n, 0)
+        x0 = np.where(owned, x0, xg[np.minimum(g, len(xg) - 2)])
+        x1 = np.where(owned, x1, xg[np.minimum(g, len(xg) - 2) + 1])
+    width = int(counts.max()) if n else 0
+    pad = np.zeros((6, n, width))
+    for k, a in enumerate((val[:, 0], val[:, 1], val[:, 2], val[:, 3], x0, x1)):
+        pad[k, row, slot] = a
+    s0 = np.zeros(n)
+    s1 = np.zeros(n)
+    for k in range(width):  # padding blocks add exact zeros
+        s0 = s0 + pad[0, :, k] * pad[4, :, k]
+        s0 = s0 + pad[1, :, k] * pad[5, :, k]
+        s1 = s1 + pad[2, :, k] * pad[4, :, k]
+        s1 = s1 + pad[3, :, k] * pad[5, :, k]
+    fa = f.array
+    fa[0::2] = s0
+    fa[1::2] = s1
 
 
 def step_two_pass(model, state, energy: dict | None = None, timers: dict | None = None) -> None:
@@ -21,7 +65,7 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
     u, v, f = state.u, state.v, state.f
     if timers is not None:
         t0 = time.perf_counter()
-    model.K.mult(u, f)  # f = K u^n
+    canonical_product(model, u, f)  # f = K u^n
     if energy is not None:
         strain = 0.5 * u.dot(f)
         v_old = v.array_r.copy()
