@@ -145,8 +145,8 @@ def probe(scene: str, sets: list, out: Path, comm=None) -> dict:
         t_fricfem_import = time.perf_counter() - t_mid
         comm = comm or MPI.COMM_WORLD
         timers.wrap(mesh, "build", "mesh")
-        timers.wrap(build_mod, "stiffness", "stiffness")
-        timers.wrap(build_mod, "lumped_mass", "mass")
+        timers.wrap(build_mod, "canonical_rows", "stiffness")
+        timers.wrap(build_mod, "canonical_mass", "mass")
         timers.wrap(build_mod, "max_eigenvalue", "dt")
 
         cfg = load_scene(scene, sets)

@@ -61,6 +61,7 @@ class Snapshot:
         self.v = state.v.array_r.copy()
         self.t, self.n, self.work = state.t, state.n, state.work_ext
         self.prev = np.array(state.u_imp_prev, copy=True)
+        self.react = np.array(state.react_prev, copy=True)
         self.points = [a.copy() for a in model.interface.points]
 
     def state(self):
@@ -70,6 +71,7 @@ class Snapshot:
         st.v.array[:] = self.v
         st.t, st.n, st.work_ext = self.t, self.n, self.work
         st.u_imp_prev = self.prev.copy()
+        st.react_prev = self.react.copy()
         for a, s in zip(self.model.interface.points, self.points):
             a[...] = s
         return st

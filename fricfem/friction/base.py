@@ -64,8 +64,9 @@ Optional verbs (``None`` when a law does not provide them):
     local iterations.  ``s`` (state, then memo) is updated in place; the
     normal traction is ``Tn1`` at the end of the step (``Tn0`` at its start).
 
-``kernel``: the law's specialised interface kernel (set by the law module;
-    None: the generic kernel).
+``kernel``, ``rigid_kernel``: the law's specialised interface kernels, elastic
+    and rigid (set by the law module, see :mod:`fricfem.kernels.interface`;
+    None: one is specialised when first needed).
 
 ``ADVANCE_TYPE`` and ``SLIDE_TYPE`` are the numba function types of ``advance``
 and ``slide``: a numba function declared with them is compiled (and cached)
@@ -118,6 +119,7 @@ class Law(NamedTuple):
     rates: Callable = None  # python (p, state, Ts, Tn) -> (v, dstate_dt), optional, see module docstring
     rigid: Callable = None  # numba (p, s, T_stick, Z, Tn0, Tn1, dt) -> (Ts, v, dslip, dwork, nsub), optional
     kernel: Callable = None  # the law's specialised interface kernel (set by the law module; None: the generic kernel)
+    rigid_kernel: Callable = None  # its rigid (split-node) interface kernel, when it has ``rigid`` (law module)
 
 
 def storage(law: Law, state) -> np.ndarray:

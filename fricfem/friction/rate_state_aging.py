@@ -20,7 +20,7 @@ T_s ≠ 0.  Shared numerics and the integrators: :mod:`.rate_state`.
 import numba
 
 from . import rate_state as rs
-from ..kernels.interface import specialise
+from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 
 PARAMS = rs.COMMON_PARAMS
@@ -69,6 +69,12 @@ def kernel(*args):
     specialise(advance, *args)
 
 
+@numba.njit(cache=True, _nrt=False)
+def rigid_kernel(*args):
+    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise_rigid(rigid, *args)
+
+
 LAW = Law(
     name="rate_state_aging",
     doc="regularized rate-and-state friction, aging (Dieterich) state law (SCEC TPV102)",
@@ -81,4 +87,5 @@ LAW = Law(
     rates=rates,
     rigid=rigid,
     kernel=kernel,
+    rigid_kernel=rigid_kernel,
 )

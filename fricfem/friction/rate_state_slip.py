@@ -23,7 +23,7 @@ integrators: :mod:`.rate_state`.
 import numba
 
 from . import rate_state as rs
-from ..kernels.interface import specialise
+from ..kernels.interface import specialise, specialise_rigid
 from .base import Law, Param
 
 PARAMS = rs.COMMON_PARAMS + (
@@ -76,6 +76,12 @@ def kernel(*args):
     specialise(advance, *args)
 
 
+@numba.njit(cache=True, _nrt=False)
+def rigid_kernel(*args):
+    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise_rigid(rigid, *args)
+
+
 LAW = Law(
     name="rate_state_slip",
     doc="regularized rate-and-state friction, slip (Ruina) state law (SCEC TPV103/104 form)",
@@ -88,4 +94,5 @@ LAW = Law(
     rates=rates,
     rigid=rigid,
     kernel=kernel,
+    rigid_kernel=rigid_kernel,
 )

@@ -18,7 +18,7 @@ T_n = T_n(t + dt), if |T*| > μ(δ) T_n the slip dδ solves
 import numba
 import numpy as np
 
-from ..kernels.interface import specialise
+from ..kernels.interface import specialise, specialise_rigid
 from .base import Law, Param, frictional_work, sign
 
 MU_S, MU_D, DC = range(3)
@@ -119,6 +119,12 @@ def kernel(*args):
     specialise(advance, *args)
 
 
+@numba.njit(cache=True, _nrt=False)
+def rigid_kernel(*args):
+    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise_rigid(rigid, *args)
+
+
 LAW = Law(
     name="slip_weakening",
     doc="linear slip-weakening Coulomb friction on the elastic interface",
@@ -130,4 +136,5 @@ LAW = Law(
     slide=slide,
     rigid=rigid,  # no ``rates``: rate independent; exact references in .reference
     kernel=kernel,
+    rigid_kernel=rigid_kernel,
 )

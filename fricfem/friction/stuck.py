@@ -7,7 +7,7 @@ for wave-propagation and energy tests of the bulk/interface coupling.
 import numba
 import numpy as np
 
-from ..kernels.interface import specialise
+from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 
 
@@ -37,6 +37,12 @@ def kernel(*args):
     specialise(advance, *args)
 
 
+@numba.njit(cache=True, _nrt=False)
+def rigid_kernel(*args):
+    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
+    specialise_rigid(rigid, *args)
+
+
 LAW = Law(
     name="stuck",
     doc="elastic interface that never slides (Ṫ_s = C_s Δu̇_s)",
@@ -47,4 +53,5 @@ LAW = Law(
     initial_state=initial_state,
     rigid=rigid,
     kernel=kernel,
+    rigid_kernel=rigid_kernel,
 )

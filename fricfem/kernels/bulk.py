@@ -87,7 +87,7 @@ def preload(rows, special, u, ug, sp_ku):
 
 
 @numba.njit(cache=True)
-def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev):
+def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react):
     """Update the special node ``I`` (its index ``k`` in the special arrays) from
     ``s = (K u)_I``; returns the work of the step's load on it [J/m].  An
     interface row adds the negative interface forces from the segments on its
@@ -116,13 +116,17 @@ def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, 
         v[i] = (v_old * (1.0 - a) - c * (f0 - imp_force[q] * sv)) / (1.0 + a)
         unew[i] = u[i] + dt * v[i]
         load_q = imp_force[q] * sv - imp_damp[q] * 0.5 * (v_old + v[i])
-        work = load_q * (0.5 * (unew[i] - imp_prev[q]))
+        work = 0.5 * (imp_react[q] + load_q) * (u[i] - imp_prev[q])  # trapezoid over [t^{n−1}, t^n]
         imp_prev[q] = u[i]
+        imp_react[q] = load_q
     elif q >= 0:
-        # prescribed u1 = U(t^{n+1}), v1 = (U(t^{n+1}) − U(t^n))/dt; reaction R^n = M a^n + f^n
+        # prescribed u1 = U(t^{n+1}), v1 = (U(t^{n+1}) − U(t^n))/dt; reaction R^n = M a^n + f^n;
+        # its work over the step that ended at t^n, ½ (R^{n−1} + R^n)(U^n − U^{n−1}), is what the
+        # central-difference energy identity E^{n+1} − E^n = ½ (F^n + F^{n+1})·(u^{n+1} − u^n) asks
         react = imp_mass[q] * (v_bc - v[i]) / dt + f0
-        work = react * (0.5 * (u1 - imp_prev[q]))
+        work = 0.5 * (imp_react[q] + react) * (u0 - imp_prev[q])  # trapezoid over [t^{n−1}, t^n]
         imp_prev[q] = u0
+        imp_react[q] = react
         v[i] = v_bc
         unew[i] = u1
     else:
@@ -145,7 +149,7 @@ def _wake_neighbours(ptr, col, act, n, I):
 
 
 @numba.njit(cache=True)
-def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, act):
+def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
@@ -155,10 +159,11 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, act)
     gl, gr    float64[2 n]    the negative interface forces from the segment on a
                               node's left / right (zero off the interface) [N/m]
     imp_prev  float64[n_imp]  u^{n−1} of the struck dofs, set to u^n = U(t^n) [m]
+    imp_react float64[n_imp]  their load (reaction) at t^{n−1}, set to the one at t^n [N/m]
     act       int8[n]         activity of each row (QUIET rows are skipped), updated
 
     Returns (u^n · K u^n over the swept rows [J/m, twice the strain energy],
-    reaction work over the step [J/m]).
+    the load's work over the step that ended at t^n [J/m]).
     """
     ptr, col, val = rows
     sp_node, _, sp_deferred, _ = special
@@ -178,7 +183,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, act)
                 continue  # in sweep_deferred, once the messages are in
             s0, s1 = _row(ptr, col, val, u, I)
             uku += u[i] * s0 + u[i + 1] * s1
-            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev)
+            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react)
             if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
                 _wake_neighbours(ptr, col, act, n, I)
             continue
@@ -198,7 +203,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, act)
 
 
 @numba.njit(cache=True)
-def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, act, sp_ku):
+def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, act, sp_ku):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
     ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
@@ -218,7 +223,7 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, i
         else:
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
-        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev)
+        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react)
         if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
     return uku, work

@@ -23,6 +23,7 @@ Each law compiles its own kernel (:func:`specialise`), so the call to
 """
 
 import numba
+import numpy as np
 
 
 @numba.njit(inline="always", cache=True)
@@ -118,7 +119,128 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
 #: (numba caches module-level functions, not ones a factory makes.)
 specialise = numba.njit(_nrt=False)(advance_points)
 
+def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
+    """One bulk step of every rigid (split-node) pair on this rank (Andrews
+    1999; Day et al. 2005, traction at split nodes).
+
+    ``wu``, ``wv``, ``wk``: u^n, v^{n−½} and (K u^n) gathered at the pairs,
+    laid out [lower nodes, upper nodes] × 2 components; ``pgeom`` =
+    (mass float64[2 n] (lower, upper per pair) [kg/m], A float64[n] [m],
+    edge float64[2 n + 1]: 1.0 where a node's x1 velocity is prescribed, then
+    that velocity this step [m/s]).
+    Without the interface the half-step velocities would be
+    ṽ = v^{n−½} − dt (K u)/M; the pair's traction (total, compression
+    positive) follows with Z = 1/(dt A (1/M⁺ + 1/M⁻)) [Pa·s/m]:
+
+        T_n = Σ0 − Z (Δṽ_n + Δu_n^n / dt)      (closes the gap at t^{n+1}; open if < 0)
+        T_s = T_stick − Z V sgn(T_stick),  T_stick = T_s0 + Z Δṽ_s  (the law's ``rigid``)
+
+    and the pair's jump rate over the step is Δṽ − ΔT/Z (shear) and
+    Δṽ_n + ΔT_n/Z (normal).  Writes the *negative* nodal forces (lower x, y,
+    upper x, y) into ``fw`` and updates the point state ``pts`` as
+    :func:`advance_points` does; the work of the bulk on the pair over the
+    step that ended at t^n is the trapezoid of the tractions at its ends
+    times the jump's increment (the central-difference energy identity:
+    E^{n+1} − E^n = ½ (F^n + F^{n+1}) · (u^{n+1} − u^n)).
+    One piece: the loop over pairs is the kernel's whole work.
+    """
+    mass, wq, edge = pgeom
+    p_Tn0, p_Ts0, p_Cn, p_Cs, param_rows, param_index = const
+    state, Tn, Ts, dTs, jn, js, rn, rs, slip, slip_rate, work, dissipated, is_open, nsub = pts
+    n = wq.size
+    v_edge = edge[2 * n]
+    for k in range(n):
+        lo = 2 * k
+        up = 2 * (n + k)
+        ml = mass[2 * k]
+        mu = mass[2 * k + 1]
+        # a node whose x1 velocity is prescribed (the struck edge's corner) moves at
+        # v_edge whatever the interface does: infinitely heavy along x1
+        if edge[2 * k] > 0.0:
+            vlx, il = v_edge, 0.0
+        else:
+            vlx, il = wv[lo] - dt * wk[lo] / ml, 1.0 / ml
+        if edge[2 * k + 1] > 0.0:
+            vux, iu = v_edge, 0.0
+        else:
+            vux, iu = wv[up] - dt * wk[up] / mu, 1.0 / mu
+        dvs = vux - vlx
+        dvn = (wv[up + 1] - dt * wk[up + 1] / mu) - (wv[lo + 1] - dt * wk[lo + 1] / ml)
+        dus = wu[up] - wu[lo]
+        dun = wu[up + 1] - wu[lo + 1]
+        Z = 1.0 / (dt * wq[k] * (1.0 / mu + 1.0 / ml))  # normal
+        Zs = 1.0 / (dt * wq[k] * (iu + il)) if iu + il > 0.0 else np.inf  # shear
+        tn_old = Tn[k]
+        ts_old = Ts[k]
+        tn_new = p_Tn0[k] - Z * (dvn + dun / dt)
+        if tn_new <= 0.0:  # open: traction-free, no frictional slip
+            tn_new = 0.0
+            ts_new = 0.0
+            sr = 0.0
+            is_open[k] = 1
+            nsub[k] = 0
+        elif Zs == np.inf:  # both nodes move as prescribed along x1: no slip, no shear force
+            ts_new = p_Ts0[k]
+            sr = 0.0
+            is_open[k] = 0
+            nsub[k] = 0
+        else:
+            ts_new, sr, dsl, dwk, ns = rigid(param_rows[param_index[k]], state[k], p_Ts0[k] + Zs * dvs, Zs,
+                                             tn_old, tn_new, dt)
+            slip[k] += dsl
+            dissipated[k] += dwk
+            is_open[k] = 0
+            nsub[k] = ns
+        rs_new = dvs - (ts_new - p_Ts0[k]) / Zs
+        rn_new = dvn + (tn_new - p_Tn0[k]) / Z
+        # work over the step that ended at t^n, the traction's trapezoid (the
+        # central-difference energy identity; rs, rn still hold that step's rates)
+        work[k] += 0.5 * dt * ((ts_old + ts_new - 2.0 * p_Ts0[k]) * rs[k] - (tn_old + tn_new - 2.0 * p_Tn0[k]) * rn[k])
+        Tn[k] = tn_new
+        Ts[k] = ts_new
+        dTs[k] = ts_new - ts_old
+        jn[k] = dun
+        js[k] = dus
+        rn[k] = rn_new
+        rs[k] = rs_new
+        slip_rate[k] = sr
+        fx = (ts_new - p_Ts0[k]) * wq[k]  # force on the lower plate, x1
+        fy = -(tn_new - p_Tn0[k]) * wq[k]  # force on the lower plate, x2
+        fw[4 * k] = -fx
+        fw[4 * k + 1] = -fy
+        fw[4 * k + 2] = fx
+        fw[4 * k + 3] = fy
+
+
+#: ``advance_pairs`` compiled per law ``rigid`` it is called with (as
+#: :data:`specialise` for ``advance``); a law module closes over it:
+#:
+#:     @numba.njit(cache=True, _nrt=False)
+#:     def rigid_kernel(*args):
+#:         specialise_rigid(rigid, *args)
+specialise_rigid = numba.njit(_nrt=False)(advance_pairs)
+
 _runtime = {}
+
+
+def rigid_kernel_for(law):
+    """The rigid-interface kernel of ``law``: ``kernel(wu, wv, wk, fw, pgeom, const, pts, dt)``
+    (the law's own, or one specialised now for its ``rigid`` verb)."""
+    if law.rigid is None:
+        raise ValueError(f"friction.law = {law.name!r}: no rigid-interface verb (interface.kind = 'rigid' "
+                         "needs a law with ``rigid``)")
+    if getattr(law, "rigid_kernel", None) is not None:
+        return law.rigid_kernel
+    kernel = _runtime.get(("rigid", law.rigid))
+    if kernel is None:
+        rigid = law.rigid
+
+        @numba.njit(_nrt=False)
+        def kernel(*args):
+            specialise_rigid(rigid, *args)
+
+        _runtime[("rigid", law.rigid)] = kernel
+    return kernel
 
 
 def kernel_for(law):

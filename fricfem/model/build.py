@@ -19,7 +19,7 @@ from petsc4py import PETSc
 
 from .. import friction
 from ..step.fused import FusedBulk, block_rows
-from ..step.interface import Interface
+from ..step.interface import Interface, RigidInterface
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .assembly import (_per_point, canonical_mass, canonical_rows, edge_weights, function_space, impact_dofs,
@@ -66,9 +66,14 @@ class Model(NamedTuple):
     num: Numbering  # this rank's dofs against the grid
 
 
+#: interface kinds: the paper's elastic interface (springs C_n, C_s, Gauss points),
+#: or rigid split-node pairs
+INTERFACE_KINDS = ("elastic", "rigid")
+
+
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
-          dt_safety: float = 0.9, dt: float | None = None) -> Model:
+          dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic") -> Model:
     """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.model.mesh.PlateMesh`).
     Collective.
 
@@ -79,6 +84,8 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     tau0      initial shear traction on the interface [Pa] (scalar or callable of x1)
     impact_tags  edges carrying the impact (none: the edge is free)
     dt        fixed step [s]; default ``dt_safety · 2/√λmax``, rounded down to 3 digits
+    interface_kind  "elastic" (springs C_n, C_s at 4 Gauss points a segment, the paper's)
+              or "rigid" (split-node pairs: the traction from the pairs' trial velocities)
     """
     comm = pm.mesh.comm
     V = function_space(pm.mesh)
@@ -86,14 +93,17 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     rows = canonical_rows(num, material)
     K = petsc_matrix(num, rows, comm)
     mass = canonical_mass(num, material.rho)
-    geom = iface_mod.build_geometry(num, K.createVecRight(), comm)
+    dofs = impact_dofs(V, pm.facet_tags, impact_tags)
+    if interface_kind == "rigid":
+        geom = iface_mod.build_pairs(num, K.createVecRight(), mass, comm, dofs if pulse.prescribed else ())
+    else:
+        geom = iface_mod.build_geometry(num, K.createVecRight(), comm)
     x1 = geom.x1
     points = iface_mod.make_points(
         law, _per_point(params, x1, len(law.params)), len(x1), sigma0,
         _per_point(tau0, x1), _per_point(Cn, x1), _per_point(Cs, x1),
     )
-    interface = Interface(geom, points, law)
-    dofs = impact_dofs(V, pm.facet_tags, impact_tags)
+    interface = (RigidInterface if interface_kind == "rigid" else Interface)(geom, points, law)
     impact = Impact(dofs, mass[dofs].copy(), pulse, np.zeros(len(dofs)), np.zeros(len(dofs)))
     if not pulse.prescribed and len(impact_tags):
         area = edge_weights(num, impact_tags, dofs)
@@ -143,6 +153,6 @@ def build_model(scene, comm):
     model = build(
         pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
         scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
-        dt_safety=scene.dt_safety, dt=scene.dt,
+        dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=getattr(scene, "interface_kind", "elastic"),
     )
     return pm, model

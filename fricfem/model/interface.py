@@ -229,3 +229,84 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
         Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
+
+
+class PairGeometry(NamedTuple):
+    """The rigid (split-node) interface seen by one rank: node pairs, not Gauss points.
+
+    x1_nodes  float64[n_nodes]   x1 of every interface node pair, sorted (all ranks) [m]
+    pairs     int64[n_pairs]     this rank's pairs (indices into x1_nodes, increasing)
+    x1        float64[n_pairs]   their x1 [m]
+    wq        float64[n_pairs]   each pair's interface length A = ∫ N ds (half of each
+                                 adjacent segment) [m per m]
+    mass      float64[2 n_pairs] lumped masses of the pair's lower, upper node [kg/m]
+    edge      float64[2 n_pairs + 1]  1.0 where the lower / upper node's x1 velocity is
+                                 prescribed (the struck edge's corner), then the
+                                 prescribed velocity of the current step [m/s]
+    scatter   PETSc.Scatter      global vector → work layout [lower nodes, upper nodes], 2 comps each
+    work_u, work_v, work_k  PETSc.Vec  gathered u^n, v^{n−½} and (K u^n) at the pairs
+    force     PETSc.Vec          the pairs' negative nodal forces (lower x, y, upper x, y)
+    to_left   PETSc.Scatter      ``force`` → ``left`` (each node has one pair: one slot)
+    left, right  PETSc.Vec       global layout; ``right`` stays zero
+    comm
+    """
+
+    x1_nodes: np.ndarray
+    pairs: np.ndarray
+    x1: np.ndarray
+    wq: np.ndarray
+    mass: np.ndarray
+    edge: np.ndarray
+    scatter: object
+    work_u: object
+    work_v: object
+    work_k: object
+    force: object
+    to_left: object
+    left: object
+    right: object
+    comm: object
+
+
+def build_pairs(num, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=()) -> PairGeometry:
+    """The node pairs of the grid numbering ``num`` dealt to ranks (blocks of
+    SEG_BLOCK, round-robin along x1) and their exchange; ``mass`` the owned
+    lumped masses (per dof); ``prescribed`` the owned local dofs whose
+    velocity is prescribed (the struck edge).  Collective."""
+    lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
+    if len(lo) < 2 or len(lo) != len(up) or not np.array_equal(num.x[lo, 0], num.x[up, 0]):
+        raise RuntimeError("interface: the lower and upper interface nodes do not pair up")
+    x1n = num.x[lo, 0].copy()
+    g_lo, g_up = num.global_block[lo], num.global_block[up]
+    pairs = np.flatnonzero((np.arange(len(x1n)) // SEG_BLOCK) % comm.size == comm.rank)
+    length = np.diff(x1n)
+    A = np.zeros(len(x1n))
+    A[:-1] += 0.5 * length  # each node gets half of the segment on its right …
+    A[1:] += 0.5 * length  # … then half of the one on its left
+    gnodes = np.concatenate([g_lo[pairs], g_up[pairs]])
+    gidx = (2 * gnodes[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+    work_u = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
+    scatter = PETSc.Scatter().create(template, PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF), work_u, None)
+    mvec = template.duplicate()
+    mvec.array[:] = mass
+    work_v, work_k = work_u.duplicate(), work_u.duplicate()
+    scatter.scatter(mvec, work_v, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+    n = len(pairs)
+    wm = work_v.array.reshape(2, n, 2)  # [lower/upper, pair, comp]
+    pair_mass = np.column_stack([wm[0, :, 0], wm[1, :, 0]]).ravel().copy()
+    mvec.set(0.0)
+    mvec.array[np.asarray(prescribed, dtype=np.int64)] = 1.0
+    scatter.scatter(mvec, work_v, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+    wf = work_v.array.reshape(2, n, 2)
+    edge = np.append(np.column_stack([wf[0, :, 0], wf[1, :, 0]]).ravel(), 0.0)
+    force = PETSc.Vec().createSeq(4 * n, comm=PETSc.COMM_SELF)
+    slots = 4 * np.arange(n)
+    left, right = template.duplicate(), template.duplicate()
+    left.set(0.0)
+    right.set(0.0)
+    src = np.concatenate([slots, slots + 1, slots + 2, slots + 3]).astype(PETSc.IntType)
+    dst = np.concatenate([2 * g_lo[pairs], 2 * g_lo[pairs] + 1, 2 * g_up[pairs], 2 * g_up[pairs] + 1])
+    to_left = PETSc.Scatter().create(force, PETSc.IS().createGeneral(src, comm=PETSc.COMM_SELF), left,
+                                     PETSc.IS().createGeneral(dst.astype(PETSc.IntType), comm=PETSc.COMM_SELF))
+    return PairGeometry(x1n, pairs, x1n[pairs].copy(), A[pairs].copy(), pair_mass, edge, scatter, work_u, work_v,
+                        work_k, force, to_left, left, right, comm)

@@ -127,7 +127,9 @@ def interface_nodes(interface, template: PETSc.Vec) -> np.ndarray:
     ones = geom.force.duplicate()
     ones.set(1.0)
     marks = []
-    for scatter in (geom.to_right, geom.to_left):
+    for scatter in (getattr(geom, "to_right", None), geom.to_left):
+        if scatter is None:  # a rigid interface: one slot a node
+            continue
         mark = template.duplicate()
         mark.set(0.0)
         scatter.scatter(ones, mark, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
@@ -200,6 +202,13 @@ class FusedBulk:
         self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, template))
         self.n_nodes = len(self.rows.ptr) - 1
         self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the interface rows, see kernels.bulk.preload
+        self.ku = None  # K u at the interface rows as a vector, for an interface that needs it (rigid)
+        if interface is not None and interface.needs_ku:
+            self.ku = template.duplicate()
+            self.ku.set(0.0)
+            k = np.flatnonzero(self.special.preloaded)
+            self.ku_dofs = (2 * self.special.node[k][:, None] + np.arange(2)[None, :]).ravel()
+            self.ku_from = (2 * k[:, None] + np.arange(2)[None, :]).ravel()
         self.no_force = np.zeros(2 * self.n_nodes)  # the left / right forces without an interface
         self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
         self._special = tuple(self.special)
@@ -226,14 +235,15 @@ class FusedBulk:
 
         Writes u^{n+1} into ``state.u_next`` and v^{n+½} into ``state.v``
         (``state.u`` is left as u^n), advances the interface points with u^n,
-        sets ``state.u_imp_prev`` (the struck dofs' previous displacement) to
-        U(t^n) and updates ``state.act`` and ``state.seconds``.
+        sets ``state.u_imp_prev`` and ``state.react_prev`` (the struck dofs'
+        previous displacement and load) to U(t^n) and the load at t^n and updates ``state.act`` and ``state.seconds``.
 
         Returns this rank's ``u^n · K u^n`` [J/m] (twice its share of the strain
         energy) and its reaction work over the step [J/m].
         """
         dt, t = self.dt, state.t
         u, u_next, v, imp_prev, act = state.u, state.u_next, state.v, state.u_imp_prev, state.act
+        imp_react = state.react_prev
         u0 = self.pulse.displacement(t)
         u1 = self.pulse.displacement(t + dt)
         load = (dt, u0, u1, (u1 - u0) / dt, self.pulse.sign * self.pulse.velocity(t))
@@ -247,17 +257,20 @@ class FusedBulk:
         if self.interface is not None:
             self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
-        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev, act)
+        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev, imp_react, act)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         if self.interface is not None:
             bulk.preload(rows, special, ua, self.ug, self.sp_ku)
-            gl, gr = self.interface.advance(u, dt, started=True)  # −F_int(u^n), left and right parts
+            if self.ku is not None:
+                self.ku.array[self.ku_dofs] = self.sp_ku[self.ku_from]
+            # −F_int(u^n), left and right parts
+            gl, gr = self.interface.advance(u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
         t4 = time.perf_counter()
         uku_d, work_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va, self.dt_minv, gl, gr,
-                                            imp_prev, act, self.sp_ku)
+                                            imp_prev, imp_react, act, self.sp_ku)
         t5 = time.perf_counter()
         sec = state.seconds
         sec["interface"] += (t1 - t0) + (t4 - t3)

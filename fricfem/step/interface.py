@@ -15,7 +15,7 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from petsc4py import PETSc
 
 from ..kernels.cache import ensure_fresh
-from ..kernels.interface import kernel_for, spring_kernel
+from ..kernels.interface import kernel_for, rigid_kernel_for, spring_kernel
 
 
 
@@ -57,7 +57,9 @@ class Interface:
         g = self.geometry
         g.scatter.begin(u, g.work, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
 
-    def advance(self, u: PETSc.Vec, dt: float, started: bool = False) -> tuple:
+    needs_ku = False  # the elastic interface needs only the displacements
+
+    def advance(self, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None, v_edge=0.0) -> tuple:
         """Advance every interface point to the end of the step whose end
         displacement is ``u``; returns the owned arrays (left, right) of the
         *negative* interface forces at each node from the segment on its left
@@ -82,9 +84,10 @@ class Interface:
         self._send()
         return g.left.array_r, g.right.array_r
 
-    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float) -> None:
-        """:meth:`advance`, then ``f += left`` and ``f += right`` (the two-pass form)."""
-        self.advance(u, dt)
+    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None) -> None:
+        """:meth:`advance`, then ``f += left`` and ``f += right`` (the two-pass form;
+        ``f`` holds K u)."""
+        self.advance(u, dt, v=v, ku=f)
         f.axpy(1.0, self.geometry.left)
         f.axpy(1.0, self.geometry.right)
 
@@ -104,6 +107,75 @@ class Interface:
         elastic = np.where(closed, 0.5 * p.Cn * p.jump_n**2, 0.0)
         elastic += np.where(p.Cs > 0, 0.5 * (p.Ts - p.Ts0) ** 2 / np.where(p.Cs > 0, p.Cs, 1.0), 0.0)
         loc = np.array([np.dot(g.wq, p.work), np.dot(g.wq, elastic), np.dot(g.wq, p.dissipated)])
+        tot = np.zeros(3)
+        g.comm.Allreduce(loc, tot, op=MPI.SUM)
+        return {"interface_work": tot[0], "interface_elastic": tot[1], "dissipated": tot[2]}
+
+
+class RigidInterface:
+    """The rigid (split-node) interface: the traction of each node pair follows
+    from the pair's trial velocities and the law's ``rigid`` verb
+    (:func:`fricfem.kernels.interface.advance_pairs`); no interface spring, so
+    the stable step is the bulk's.  The same verbs as :class:`Interface`;
+    the points are the node pairs (:class:`fricfem.model.interface.PairGeometry`)."""
+
+    needs_ku = True  # the pairs' trial velocities need K u at their nodes
+
+    def __init__(self, geometry, points, law):
+        ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
+        self.geometry = geometry
+        self.points = points
+        self.law = law
+        self.kernel = rigid_kernel_for(law)
+        self._pgeom = (geometry.mass, geometry.wq, geometry.edge)
+        self._const = points.kernel_const()
+        self._state = points.kernel_state()
+        self._compiled = False
+
+    def begin_gather(self, u: PETSc.Vec) -> None:
+        """Start gathering the pairs' displacements; :meth:`advance` ends it."""
+        g = self.geometry
+        g.scatter.begin(u, g.work_u, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+
+    def advance(self, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None, v_edge: float = 0.0) -> tuple:
+        """Advance every pair over the step from u^n, v^{n−½} and ``ku`` = K u^n
+        (at least at the interface nodes), the struck edge moving at ``v_edge``
+        along x1 over the step; returns the owned arrays (left, right) of the
+        negative nodal forces (right is zero: one pair a node).  Collective."""
+        g = self.geometry
+        g.edge[-1] = v_edge
+        insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
+        if started:
+            g.scatter.end(u, g.work_u, insert, forward)
+        else:
+            g.scatter.scatter(u, g.work_u, insert, forward)
+        g.scatter.scatter(v, g.work_v, insert, forward)
+        g.scatter.scatter(ku, g.work_k, insert, forward)
+        args = (g.work_u.array, g.work_v.array, g.work_k.array, g.force.array, self._pgeom, self._const,
+                self._state, dt)
+        if self._compiled:
+            self.kernel(*args)
+        else:
+            with warnings.catch_warnings():  # see Interface.advance
+                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+                self.kernel(*args)
+            self._compiled = True
+        g.to_left.scatter(g.force, g.left, insert, forward)
+        return g.left.array_r, g.right.array_r
+
+    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None, v_edge: float = 0.0) -> None:
+        """:meth:`advance` with ``f`` = K u, then ``f += left`` (the two-pass form)."""
+        self.advance(u, dt, v=v, ku=f, v_edge=v_edge)
+        f.axpy(1.0, self.geometry.left)
+
+    def add_spring_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """No interface spring: nothing to add (the stable step is the bulk's)."""
+
+    def energy(self) -> dict:
+        """Interface energies per unit thickness [J/m], summed over all ranks
+        (a rigid contact stores none)."""
+        p, g = self.points, self.geometry
+        loc = np.array([np.dot(g.wq, p.work), 0.0, np.dot(g.wq, p.dissipated)])
         tot = np.zeros(3)
         g.comm.Allreduce(loc, tot, op=MPI.SUM)
         return {"interface_work": tot[0], "interface_elastic": tot[1], "dissipated": tot[2]}

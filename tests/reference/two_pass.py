@@ -85,10 +85,11 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
         u0 = imp.pulse.displacement(state.t)
         u.array[imp.dofs] = u1
         v.array[imp.dofs] = (u1 - u0) / dt
-        # reaction R^n = M a^n + f^n on the struck dofs; work R^n·(u^{n+1} − u^{n−1})/2
+        # reaction R^n = M a^n + f^n on the struck dofs; work ½ (R^{n−1} + R^n)(U^n − U^{n−1})
         react = imp.mass * ((u1 - u0) / dt - v_imp_old) / dt + f_imp
-        state.work_ext += float(np.dot(react, 0.5 * (u1 - state.u_imp_prev)))
+        state.work_ext += float(np.dot(0.5 * (state.react_prev + react), u0 - state.u_imp_prev))
         state.u_imp_prev = np.full(len(imp.dofs), u0)
+        state.react_prev = react
     else:
         # a traction F = force·sign·V(t^n) − damp·v^n, v^n = (v^{n−½} + v^{n+½})/2 (implicit in v^{n+½})
         sv = imp.pulse.sign * imp.pulse.velocity(state.t)
@@ -99,8 +100,9 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
         v.array[imp.dofs] = v_new
         u.array[imp.dofs] = u_new
         load = imp.force * sv - imp.damp * 0.5 * (v_imp_old + v_new)
-        state.work_ext += float(np.dot(load, 0.5 * (u_new - state.u_imp_prev)))
+        state.work_ext += float(np.dot(0.5 * (state.react_prev + load), u_imp_old - state.u_imp_prev))
         state.u_imp_prev = u_imp_old
+        state.react_prev = load
     if energy is not None:
         kinetic = 0.5 * float(np.dot(model.mass * v_old, v.array_r))
         loc = np.array([kinetic, state.work_ext])
