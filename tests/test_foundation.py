@@ -145,7 +145,7 @@ def _tag_lengths(pm):
     f2v = msh.topology.connectivity(1, 0)
     x = msh.geometry.x
     out = {}
-    for name in ("interface_lower", "interface_upper", "impact_lower", "impact_upper", "outer"):
+    for name in ("interface_lower", "interface_upper", "impact_lower", "impact_upper", "bottom", "top", "right", "left"):
         facets = ft.indices[(ft.values == mesh.TAGS[name]) & (ft.indices < n_owned)]
         length = sum(np.linalg.norm(x[f2v.links(f)[0]] - x[f2v.links(f)[1]]) for f in facets)
         out[name] = comm.allreduce(length, op=MPI.SUM)
@@ -169,7 +169,10 @@ def test_mesh_presets_and_tags(comm):
     assert L["impact_lower"] == pytest.approx(0.025, rel=1e-12)
     assert L["impact_upper"] == pytest.approx(0.025, rel=1e-12)
     perimeter = 2 * 2 * (spec.length + spec.height)
-    assert L["outer"] == pytest.approx(perimeter - 2 * spec.length - 2 * 0.025, rel=1e-12)
+    outer = L["bottom"] + L["top"] + L["right"] + L["left"]
+    assert outer == pytest.approx(perimeter - 2 * spec.length - 2 * 0.025, rel=1e-12)
+    assert L["bottom"] == L["top"] == pytest.approx(spec.length, rel=1e-12)
+    assert L["right"] == pytest.approx(2 * spec.height, rel=1e-12)
     # the fine region is uniform 0.30 × 0.20 mm and the other presets have their sizes
     x = grid.axis_nodes(spec.length, (0.0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
     assert np.allclose(np.diff(x[x <= 0.060 + 1e-12]), 0.3e-3)

@@ -10,13 +10,16 @@ per call), unpacked on the first line of each kernel:
             this rank's block rows of K (2×2 blocks, [N/m², per m thickness]);
             ``col`` < n an owned node, n + k the k-th gathered off-rank node
     special (node int32[n_sp+1], impact int32[n_sp], deferred int8[n_sp],
-            preloaded int8[n_sp]): the rows needing more than the plain update
-            (:class:`fricfem.step.fused.Special`)
+            preloaded int8[n_sp], damped int32[n_sp]): the rows needing more
+            than the plain update (:class:`fricfem.step.fused.Special`)
     edge    (mass float64[n_imp] [kg/m], force, damp float64[n_imp] or empty)
             the struck edge's x1 dofs: lumped masses, and for a traction load
             the coefficients of force · sv − damp · v1 [N·s/m², per m]
     load    (dt [s], u0 = U(t^n) [m], u1 = U(t^{n+1}) [m], v_bc = (u1 − u0)/dt
             [m/s], sv = sign · V(t^n) [m/s]) of this step
+    absorb  (c float64[n_d, 2] the dashpot coefficient of each damped node's two
+            components [N·s/m², per m], prev float64[n_d, 4]: u^{n−1} and the
+            dashpot force at t^{n−1} of both components, updated)
 
 Rounding: every row is summed over its blocks in the grid's node order
 (:mod:`fricfem.model.numbering`), owned and off-rank columns alike, and an
@@ -76,7 +79,7 @@ def preload(rows, special, u, ug, sp_ku):
     (float64[2 n_special], by special index), while the interface computes its
     forces; ``ug`` the gathered off-rank displacements, if a row needs them."""
     ptr, col, val = rows
-    sp_node, _, _, sp_preloaded = special
+    sp_node, _, _, sp_preloaded, _ = special
     n = ptr.size - 1
     for k in range(sp_preloaded.size):
         if sp_preloaded[k]:
@@ -86,18 +89,37 @@ def preload(rows, special, u, ug, sp_ku):
             sp_ku[2 * k + 1] = s1
 
 
+@numba.njit(inline="always", cache=True)
+def _damped(i, d, comp, f, u, unew, v, c_dt_minv, dt, absorb):
+    """The implicit update of one dashpot component (force −c v^n, v^n the
+    mean of the half-step velocities); returns the energy it absorbed over
+    the step that ended at t^n (the force's trapezoid: the energy identity)."""
+    c, prev = absorb
+    a = 0.5 * c_dt_minv * c[d, comp]
+    v_old = v[i]
+    v[i] = (v_old * (1.0 - a) - c_dt_minv * f) / (1.0 + a)
+    unew[i] = u[i] + dt * v[i]
+    force = -c[d, comp] * 0.5 * (v_old + v[i])
+    absorbed = -0.5 * (prev[d, 2 + comp] + force) * (u[i] - prev[d, comp])
+    prev[d, comp] = u[i]
+    prev[d, 2 + comp] = force
+    return absorbed
+
+
 @numba.njit(cache=True)
-def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react):
+def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb):
     """Update the special node ``I`` (its index ``k`` in the special arrays) from
-    ``s = (K u)_I``; returns the work of the step's load on it [J/m].  An
+    ``s = (K u)_I``; returns (the work of the step's load on it, the energy
+    its dashpots absorbed) [J/m], both over the step that ended at t^n.  An
     interface row adds the negative interface forces from the segments on its
     left and right, ``gl`` and ``gr``, in that order.
 
     On the struck edge either u1 is prescribed (``edge`` masses; U(t^n),
     U(t^{n+1}), v_bc) or, when the edge's force coefficients are not empty, a
     traction acts: the force ``force · sv − damp · v^n`` with v^n = (v^{n−½} +
-    v^{n+½})/2, taken implicitly in v^{n+½}."""
-    _, sp_impact, _, sp_preloaded = special
+    v^{n+½})/2, taken implicitly in v^{n+½}.  A node on an absorbing edge has
+    dashpots on its free components (:func:`_damped`)."""
+    _, sp_impact, _, sp_preloaded, sp_damped = special
     imp_mass, imp_force, imp_damp = edge
     dt, u0, u1, v_bc, sv = load
     i = 2 * I
@@ -108,7 +130,9 @@ def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, 
         f0 = s0
         f1 = s1
     work = 0.0
+    absorbed = 0.0
     q = sp_impact[k]
+    d = sp_damped[k]
     if q >= 0 and imp_force.size:
         c = dt_minv[I]
         a = 0.5 * c * imp_damp[q]
@@ -129,12 +153,17 @@ def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, 
         imp_react[q] = react
         v[i] = v_bc
         unew[i] = u1
+    elif d >= 0 and absorb[0][d, 0] > 0.0:
+        absorbed += _damped(i, d, 0, f0, u, unew, v, dt_minv[I], dt, absorb)
     else:
         v[i] -= dt_minv[I] * f0
         unew[i] = u[i] + dt * v[i]
-    v[i + 1] -= dt_minv[I] * f1
-    unew[i + 1] = u[i + 1] + dt * v[i + 1]
-    return work
+    if d >= 0 and absorb[0][d, 1] > 0.0:
+        absorbed += _damped(i + 1, d, 1, f1, u, unew, v, dt_minv[I], dt, absorb)
+    else:
+        v[i + 1] -= dt_minv[I] * f1
+        unew[i + 1] = u[i + 1] + dt * v[i + 1]
+    return work, absorbed
 
 
 @numba.njit(inline="always", cache=True)
@@ -149,7 +178,7 @@ def _wake_neighbours(ptr, col, act, n, I):
 
 
 @numba.njit(cache=True)
-def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, act):
+def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
@@ -163,16 +192,18 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
     act       int8[n]         activity of each row (QUIET rows are skipped), updated
 
     Returns (u^n · K u^n over the swept rows [J/m, twice the strain energy],
-    the load's work over the step that ended at t^n [J/m]).
+    the load's work and the energy the dashpots absorbed over the step that
+    ended at t^n [J/m]).
     """
     ptr, col, val = rows
-    sp_node, _, sp_deferred, _ = special
+    sp_node, _, sp_deferred, _, _ = special
     dt = load[0]
     n = ptr.size - 1
     k = 0
     nxt = sp_node[0]
     uku = 0.0
     work = 0.0
+    absorbed = 0.0
     for I in range(n):
         i = 2 * I
         if I == nxt:
@@ -183,7 +214,10 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
                 continue  # in sweep_deferred, once the messages are in
             s0, s1 = _row(ptr, col, val, u, I)
             uku += u[i] * s0 + u[i + 1] * s1
-            work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react)
+            w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
+                                    imp_react, absorb)
+            work += w
+            absorbed += ab
             if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
                 _wake_neighbours(ptr, col, act, n, I)
             continue
@@ -199,19 +233,21 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
         unew[i + 1] = u[i + 1] + dt * v[i + 1]
         if state == ACTIVE and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
-    return uku, work
+    return uku, work, absorbed
 
 
 @numba.njit(cache=True)
-def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, act, sp_ku):
+def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
+                   sp_ku):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
     ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
     ptr, col, val = rows
-    sp_node, _, sp_deferred, sp_preloaded = special
+    sp_node, _, sp_deferred, sp_preloaded, _ = special
     n = ptr.size - 1
     uku = 0.0
     work = 0.0
+    absorbed = 0.0
     for kk in range(sp_deferred.size):
         if not sp_deferred[kk]:
             continue
@@ -223,7 +259,10 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, i
         else:
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
-        work += _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react)
+        w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
+                                imp_react, absorb)
+        work += w
+        absorbed += ab
         if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
-    return uku, work
+    return uku, work, absorbed

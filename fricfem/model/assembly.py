@@ -175,6 +175,34 @@ def edge_weights(num, names, dofs) -> np.ndarray:
     return weight[num.node_of_block[np.asarray(dofs) // 2]]
 
 
+def dashpots(num, names, material: Material) -> tuple:
+    """Lysmer–Kuhlemeyer dashpots on the outer edges ``names`` (of
+    :data:`fricfem.model.grid.OUTER`): the traction −ρ c_l v_n n − ρ c_s v_t t,
+    lumped to the nodes as A_i ρ c per component (A_i half of each adjacent
+    edge's length, summed in grid-edge order), normal component ρ c_l, the
+    other ρ c_s.  Returns (owned local blocks int64[m], coefficients
+    float64[m, 2] (x1, x2) [N·s/m², per m thickness])."""
+    if not names:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 2))
+    rows, vals, order_e = [], [], []
+    for name in names:
+        edges = num.facets[num.facet_tags == TAGS[name]]
+        length = np.linalg.norm(num.x[edges[:, 1]] - num.x[edges[:, 0]], axis=1)
+        normal_x = name in ("left", "right")  # the others are the far edges, normal along x2
+        cn, ct = material.rho * material.c_l, material.rho * material.c_s
+        c = np.array([cn, ct] if normal_x else [ct, cn])
+        rows.append(edges.ravel())
+        vals.append(np.repeat(0.5 * length, 2)[:, None] * c[None, :])
+        order_e.append(np.repeat(np.flatnonzero(num.facet_tags == TAGS[name]), 2))
+    R, V, E = np.concatenate(rows), np.vstack(vals), np.concatenate(order_e)
+    local = num.block_of_node[R]
+    mine = (local >= 0) & (local < num.n_owned)
+    R, V, E, local = R[mine], V[mine], E[mine], local[mine]
+    order = np.lexsort((E, local))
+    start, c = _sum_in_order(local[order][:, None], V[order])
+    return local[order][start], c
+
+
 def _coordinate_noise(num) -> np.ndarray:
     """A deterministic pseudo-random vector keyed on the grid coordinates of the
     owned dofs (identical on any number of ranks), to start the power iteration."""

@@ -22,8 +22,8 @@ from ..step.fused import FusedBulk, block_rows
 from ..step.interface import Interface, RigidInterface
 from . import interface as iface_mod
 from . import mesh as mesh_mod
-from .assembly import (_per_point, canonical_mass, canonical_rows, edge_weights, function_space, impact_dofs,
-                       max_eigenvalue, petsc_matrix, round_down)
+from .assembly import (_per_point, canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
+                       impact_dofs, max_eigenvalue, petsc_matrix, round_down)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
 from .material import Material
@@ -73,7 +73,8 @@ INTERFACE_KINDS = ("elastic", "rigid")
 
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
-          dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic") -> Model:
+          dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic",
+          absorbing=()) -> Model:
     """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.model.mesh.PlateMesh`).
     Collective.
 
@@ -86,6 +87,7 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     dt        fixed step [s]; default ``dt_safety · 2/√λmax``, rounded down to 3 digits
     interface_kind  "elastic" (springs C_n, C_s at 4 Gauss points a segment, the paper's)
               or "rigid" (split-node pairs: the traction from the pairs' trial velocities)
+    absorbing outer edges with dashpots (of :data:`fricfem.model.grid.OUTER`)
     """
     comm = pm.mesh.comm
     V = function_space(pm.mesh)
@@ -113,7 +115,8 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
-    bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm)
+    bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
+                     dashpots(num, tuple(absorbing), material))
     return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk, num)
 
 
@@ -154,5 +157,6 @@ def build_model(scene, comm):
         pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
         scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
         dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=getattr(scene, "interface_kind", "elastic"),
+        absorbing=getattr(scene, "absorbing", ()),
     )
     return pm, model

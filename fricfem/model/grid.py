@@ -26,8 +26,14 @@ TAGS = {
     "interface_upper": 12,
     "impact_lower": 21,
     "impact_upper": 22,
-    "outer": 30,
+    "bottom": 31,  # the lower plate's far edge, x2 = −height
+    "top": 32,  # the upper plate's far edge, x2 = +height
+    "right": 33,  # x1 = length, both plates
+    "left": 34,  # x1 = 0 outside the struck segments, both plates
 }
+
+#: The outer edges by name (each can be made absorbing).
+OUTER = ("bottom", "top", "right", "left")
 
 
 def axis_nodes(length, fine, h, ratio, hmax, breaks) -> np.ndarray:
@@ -112,7 +118,9 @@ def plate_grid(spec, upper: bool) -> PlateGrid:
     edges = {
         f"interface_{name}": interface,
         f"impact_{name}": left[hit],
-        "outer": np.vstack([far, right, left[~hit]]),
+        "top" if upper else "bottom": far,
+        "right": right,
+        "left": left[~hit],
     }
     return PlateGrid(x, cells, edges)
 

@@ -91,14 +91,16 @@ class Special(NamedTuple):
     impact     int32[n]      index of the node's x1 dof in the struck-edge arrays, or −1
     deferred   int8[n]       1: updated after the main sweep (interface rows, and MPI
                              boundary rows, which wait for the off-rank displacements)
-    preloaded  int8[n]       1: an interface row, ``g`` holds ``K u`` + interface
-                             forces at the node; 0: ``g`` is zero there
+    preloaded  int8[n]       1: an interface row (K u kept by the pre-pass, the
+                             interface's forces added)
+    damped     int32[n]      index of the node in the dashpot arrays, or −1
     """
 
     node: np.ndarray
     impact: np.ndarray
     deferred: np.ndarray
     preloaded: np.ndarray
+    damped: np.ndarray
 
 
 def block_rows(num, rows) -> BlockRows:
@@ -143,28 +145,33 @@ def _has_off_rank(rows: BlockRows, nodes: np.ndarray, n_nodes: int) -> np.ndarra
     return np.isin(nodes, row_of_block[rows.col >= n_nodes])
 
 
-def special_nodes(rows: BlockRows, impact_dofs: np.ndarray, iface_nodes: np.ndarray) -> Special:
-    """Merge the interface, struck-edge (x1 dofs: even local indices) and MPI boundary nodes."""
+def special_nodes(rows: BlockRows, impact_dofs: np.ndarray, iface_nodes: np.ndarray,
+                  damped_nodes=np.zeros(0, dtype=np.int64)) -> Special:
+    """Merge the interface, struck-edge (x1 dofs: even local indices), dashpot
+    and MPI boundary nodes."""
     impact_dofs = np.asarray(impact_dofs, dtype=np.int64)
     if (impact_dofs % 2).any():
         raise ValueError("fused: the prescribed dofs must be x1 components (even local indices)")
     n_nodes = len(rows.ptr) - 1
     bnd = np.flatnonzero(_has_off_rank(rows, np.arange(n_nodes), n_nodes))
     imp = impact_dofs // 2
-    node = np.unique(np.concatenate([iface_nodes, imp, bnd]).astype(np.int64))
+    damped_nodes = np.asarray(damped_nodes, dtype=np.int64)
+    node = np.unique(np.concatenate([iface_nodes, imp, bnd, damped_nodes]).astype(np.int64))
     impact = np.full(len(node), -1, dtype=np.int32)
     impact[np.searchsorted(node, imp)] = np.arange(len(imp), dtype=np.int32)
+    damped = np.full(len(node), -1, dtype=np.int32)
+    damped[np.searchsorted(node, damped_nodes)] = np.arange(len(damped_nodes), dtype=np.int32)
     on_interface = np.isin(node, iface_nodes)
     deferred = (on_interface | np.isin(node, bnd)).astype(np.int8)
     preloaded = on_interface.astype(np.int8)
-    return Special(np.append(node, n_nodes).astype(np.int32), impact, deferred, preloaded)
+    return Special(np.append(node, n_nodes).astype(np.int32), impact, deferred, preloaded, damped)
 
 
 class FusedBulk:
     """The fused step of one model: built once, one verb (:meth:`advance`).
 
     >>> bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, template, comm)
-    >>> uku, work = bulk.advance(state)   # state.u_next <- u^{n+1}, state.v <- v^{n+½}
+    >>> uku, work, absorbed = bulk.advance(state)   # state.u_next <- u^{n+1}, state.v <- v^{n+½}
 
     Skipping what the motion has not reached.  Started from rest, a row whose
     node and neighbours all hold u = v = 0 has an update of exactly zero, so it
@@ -180,12 +187,15 @@ class FusedBulk:
     hand must be woken (``state.wake()``).
     """
 
-    def __init__(self, rows: BlockRows, dt_minv, dt: float, interface, impact, template: PETSc.Vec, comm):
+    def __init__(self, rows: BlockRows, dt_minv, dt: float, interface, impact, template: PETSc.Vec, comm,
+                 dashpots=(np.zeros(0, dtype=np.int64), np.zeros((0, 2)))):
         """``rows`` this rank's block rows of K (:func:`block_rows`); ``interface``
         the model's :class:`fricfem.step.interface.Interface` or None (bulk
         alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
         masses, pulse, traction coefficients); ``template`` a vector with the
-        displacement's layout.  Collective."""
+        displacement's layout; ``dashpots`` (owned nodes, coefficients
+        float64[m, 2]) of the absorbing edges
+        (:func:`fricfem.model.assembly.dashpots`).  Collective."""
         ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.dt = float(dt)
         dt_minv = np.asarray(dt_minv, dtype=np.float64)
@@ -199,7 +209,9 @@ class FusedBulk:
                      np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64),
                      np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
         self.rows = rows
-        self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, template))
+        self.damped_nodes = np.asarray(dashpots[0], dtype=np.int64)
+        self.damping = np.ascontiguousarray(dashpots[1], dtype=np.float64).reshape(-1, 2)
+        self.special = special_nodes(self.rows, impact.dofs, interface_nodes(interface, template), self.damped_nodes)
         self.n_nodes = len(self.rows.ptr) - 1
         self.sp_ku = np.zeros(2 * len(self.special.impact))  # K u at the interface rows, see kernels.bulk.preload
         self.ku = None  # K u at the interface rows as a vector, for an interface that needs it (rigid)
@@ -239,11 +251,13 @@ class FusedBulk:
         previous displacement and load) to U(t^n) and the load at t^n and updates ``state.act`` and ``state.seconds``.
 
         Returns this rank's ``u^n · K u^n`` [J/m] (twice its share of the strain
-        energy) and its reaction work over the step [J/m].
+        energy), its load's work and the energy its dashpots absorbed, over
+        the step that ended at t^n [J/m].
         """
         dt, t = self.dt, state.t
         u, u_next, v, imp_prev, act = state.u, state.u_next, state.v, state.u_imp_prev, state.act
         imp_react = state.react_prev
+        absorb = (self.damping, state.damp_prev)
         u0 = self.pulse.displacement(t)
         u1 = self.pulse.displacement(t + dt)
         load = (dt, u0, u1, (u1 - u0) / dt, self.pulse.sign * self.pulse.velocity(t))
@@ -257,7 +271,8 @@ class FusedBulk:
         if self.interface is not None:
             self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
-        uku, work = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev, imp_react, act)
+        uku, work, absorbed = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev,
+                                         imp_react, absorb, act)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
@@ -269,11 +284,12 @@ class FusedBulk:
             # −F_int(u^n), left and right parts
             gl, gr = self.interface.advance(u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
         t4 = time.perf_counter()
-        uku_d, work_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va, self.dt_minv, gl, gr,
-                                            imp_prev, imp_react, act, self.sp_ku)
+        uku_d, work_d, absorbed_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va,
+                                                        self.dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
+                                                        self.sp_ku)
         t5 = time.perf_counter()
         sec = state.seconds
         sec["interface"] += (t1 - t0) + (t4 - t3)
         sec["sweep"] += (t2 - t1) + (t5 - t4)
         sec["wait"] += t3 - t2
-        return uku + uku_d, work + work_d
+        return uku + uku_d, work + work_d, absorbed + absorbed_d

@@ -32,6 +32,8 @@ class State:
         self.work_ext = 0.0  # this rank's share [J/m]
         self.u_imp_prev = np.zeros(len(model.impact.dofs))  # U(t^{n−1}) of the struck dofs [m]
         self.react_prev = np.zeros(len(model.impact.dofs))  # their load at t^{n−1} [N/m]
+        self.damp_prev = np.zeros((len(model.bulk.damping), 4))  # dashpots: u^{n−1} and force at t^{n−1}
+        self.absorbed = 0.0  # energy the dashpots absorbed, this rank's share [J/m]
         self.act = model.bulk.activity(at_rest=skip_quiet)  # rows awake (kernels.bulk QUIET/ACTIVE/SPREAD)
         #: wall time per phase of the fused step, summed over steps [s]: the interface
         #: (gather, kernel, reverse scatter), the sweeps, the wait for off-rank displacements

@@ -22,21 +22,24 @@ from mpi4py import MPI
 def step(model, state, energy: dict | None = None) -> None:
     """Advance ``state`` by one step ``model.dt`` (collective).  If ``energy`` is
     a dict it is filled with the energies at t^n [J/m]: kinetic, strain,
-    interface work/elastic/dissipated, external work and the balance error."""
+    interface work/elastic/dissipated, external work, the energy the absorbing
+    edges took out, and the balance error."""
     if energy is not None:
         v_old = state.v.array_r.copy()
-    uku, work = model.bulk.advance(state)
+    uku, work, absorbed = model.bulk.advance(state)
     state.u, state.u_next = state.u_next, state.u  # u^{n+1}; u^n's buffer takes the next output
     state.work_ext += work
+    state.absorbed += absorbed
     if energy is not None:
         kinetic = 0.5 * float(np.dot(model.mass * v_old, state.v.array_r))
-        loc = np.array([kinetic, state.work_ext, 0.5 * uku])
-        tot = np.zeros(3)
+        loc = np.array([kinetic, state.work_ext, 0.5 * uku, state.absorbed])
+        tot = np.zeros(4)
         model.comm.Allreduce(loc, tot, op=MPI.SUM)
         energy.update(model.interface.energy())
-        energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1])
+        energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1], absorbed=tot[3])
         energy["balance_error"] = (
-            energy["kinetic"] + energy["strain"] + energy["interface_work"] - energy["external"]
+            energy["kinetic"] + energy["strain"] + energy["interface_work"] + energy["absorbed"]
+            - energy["external"]
         )
     state.t_interface = state.t
     state.t += model.dt
