@@ -1,6 +1,8 @@
 """The ``fricfem`` command: ``fricfem mesh --preset reference --info`` and friends.
 
-Every sub-command works under ``mpirun -n N``; only rank 0 prints.
+Every sub-command works under ``mpirun -n N``; only rank 0 prints.  Bad input
+(a scene, a ``--set``, an argument) ends every rank with status 2 and one
+line ``fricfem: error: ...`` from rank 0, before any mesh is built.
 """
 
 from __future__ import annotations
@@ -8,8 +10,60 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import os
 import sys
+
+
+def _rank() -> int:
+    """This process's MPI rank, without starting MPI when it is not running yet."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is not None:
+        return mpi.COMM_WORLD.rank
+    for var in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
+        if os.environ.get(var, "").isdigit():
+            return int(os.environ[var])
+    return 0
+
+
+def _error(msg: str, prog: str = "fricfem") -> int:
+    if _rank() == 0:
+        print(f"{prog}: error: {' '.join(str(msg).split())}", file=sys.stderr)
+    return 2
+
+
+def _collective(fn):
+    """``fn()`` on every rank; if it fails on any rank with bad input, a SceneError
+    (the first rank's message) on every rank — so no rank goes on alone."""
+    from mpi4py import MPI
+
+    from .scene import SceneError
+
+    try:
+        result, problem = fn(), None
+    except ValueError as err:  # SceneError is a ValueError
+        result, problem = None, str(err)
+    problems = MPI.COMM_WORLD.allgather(problem)
+    first = next((p for p in problems if p), None)
+    if first:
+        raise SceneError(first)
+    return result
+
+
+def _given(args, *names) -> None:
+    """Refuse an option given as an empty string (it would otherwise fall back to a default)."""
+    from .scene import SceneError
+
+    for name in names:
+        v = getattr(args, name.lstrip("-").replace("-", "_"))
+        if v is not None and not str(v).strip():
+            raise SceneError(f"{name} {v!r}: empty")
+
+
+def _warn(lines) -> None:
+    if _rank() == 0:
+        for line in lines:
+            print(f"fricfem: warning: {line}", file=sys.stderr)
 
 
 def _mesh(args) -> int:
@@ -17,23 +71,45 @@ def _mesh(args) -> int:
 
     from . import scene as scene_mod
     from .model import mesh
+    from .scene import SceneError, cost
 
-    if args.scene:  # the mesh of a scene, its [mesh] table and --set mesh.* applied
-        raw = scene_mod.apply_overrides(scene_mod.resolve(args.scene),
-                                        [f"mesh.{item}" for item in args.set or []])
-        if args.preset:
-            raw.setdefault("mesh", {})["preset"] = args.preset
-        spec = scene_mod.validate(raw).mesh
-    else:
+    _given(args, "--preset", "--write")
+    items = [i[len("mesh."):] if i.startswith("mesh.") else i for i in args.set or []]  # both spellings
+
+    def load():
+        if args.preset and any(i.partition("=")[0].strip() == "preset" for i in items):
+            raise SceneError(f"--preset {args.preset} and --set preset=...: give the mesh preset once")
+        if args.scene:  # the mesh of a scene, its [mesh] table and --set mesh.* applied
+            raw = scene_mod.apply_overrides(scene_mod.resolve(args.scene), [f"mesh.{item}" for item in items])
+            if args.preset:
+                raw.setdefault("mesh", {})["preset"] = args.preset
+            return scene_mod.validate(raw).mesh
         table = {"preset": args.preset or "reference"}
-        for item in args.set or []:
+        for item in items:
             keys, value = scene_mod.parse_override(f"mesh.{item}")
             table[keys[-1]] = value
-        spec = scene_mod.validate({"mesh": table}).mesh  # every key checked by the schema
-    if args.write and MPI.COMM_WORLD.rank == 0:
-        folder = os.path.dirname(os.path.abspath(args.write))
-        if not os.path.isdir(folder):
-            raise scene_mod.SceneError(f"--write {args.write!r}: folder {folder!r} does not exist")
+        return scene_mod.validate_mesh(table)  # every key checked by the schema
+
+    spec = _collective(load)
+
+    def size():
+        xs, ys = cost.axes(spec)  # validation bounded the size: cheap
+        quads = 2.0 * (len(xs) - 1) * (len(ys) - 1)
+        if quads > cost.BUDGET["quads"] and not args.force:
+            raise SceneError(f"mesh: about {quads:.3g} quadrilaterals, above the budget of "
+                             f"{cost.BUDGET['quads']:.3g}; pass --force to build it anyway")
+        if args.write:
+            folder = os.path.dirname(os.path.abspath(args.write))
+            if not args.write.endswith(".msh"):
+                raise SceneError(f"--write {args.write!r}: expected a file name ending in .msh (a gmsh model)")
+            if not os.path.isdir(folder):
+                raise SceneError(f"--write {args.write!r}: folder {folder!r} does not exist")
+            if os.path.isdir(args.write):
+                raise SceneError(f"--write {args.write!r}: is a directory")
+            if not os.access(folder, os.W_OK):
+                raise SceneError(f"--write {args.write!r}: folder {folder!r} is not writable")
+
+    _collective(size)
     pm = mesh.build(spec, MPI.COMM_WORLD, msh_file=args.write)
     info = mesh.info(pm)
     if MPI.COMM_WORLD.rank == 0:
@@ -56,8 +132,47 @@ def _scenes(args) -> int:
     return 0
 
 
+def _check_text(scene, est, ranks: int = 1) -> str:
+    """What ``fricfem run --check`` prints: the scene is valid, its size and cost against the budget."""
+    from .scene import cost
+
+    dt = (f"time.dt = {est.dt_low:.3g} s" if est.dt_fixed else
+          f"{est.dt_low:.3g} … {est.dt_high:.3g} s (time.dt_safety = {scene.dt_safety:g} of the stable step "
+          f"{est.dt_crit[0]:.3g} … {est.dt_crit[1]:.3g} s)")
+    over = est.over(cost.BUDGET)
+    budget = ", ".join(f"{k} {v:.3g}" for k, v in cost.BUDGET.items())
+    return "\n".join([
+        f"scene {scene.name}: valid (law {scene.law}, mesh {scene.raw.get('mesh', {}).get('preset', 'reference')})",
+        f"mesh: {est.quads:,.0f} quadrilaterals, {est.dofs:,.0f} dofs, {est.interface_points:,.0f} interface points;"
+        f" smallest cell {est.h_min[0]:.3g} × {est.h_min[1]:.3g} m",
+        f"step: {dt}",
+        f"steps: at most {est.steps:,.0f} to time.end = {scene.t_end:g} s; {est.dof_steps:.3g} dof·steps "
+        f"(time loop roughly {est.dof_steps / cost.RATE / ranks:.3g} s on {ranks} rank(s)); interface output "
+        f"about {est.output_bytes / 1e6:.3g} MB",
+        f"budget ({budget}): " + ("within" if not over else
+                                  "above (" + ", ".join(k for k, _, _ in over) + "): runs with --force"),
+    ])
+
+
 def _run(args) -> int:
     from mpi4py import MPI
+
+    from . import scene as scene_mod
+    from .scene import SceneError, cost
+
+    _given(args, "--out")
+    if args.check:
+        extra = [n for n, v in (("--out", args.out), ("--overwrite", args.overwrite), ("--quiet", args.quiet))
+                 if v not in (None, False)]
+        if extra:
+            raise SceneError(f"{', '.join(extra)}: not used with --check (it validates and estimates only)")
+    scene = _collective(lambda: scene_mod.load(args.scene, args.set))
+    est = _collective(lambda: cost.check(scene, force=args.force))
+    _warn(list(scene.warnings) + [n for n in [cost.notice(est, MPI.COMM_WORLD.size)] if n and not args.check])
+    if args.check:
+        if MPI.COMM_WORLD.rank == 0:
+            print(_check_text(scene, est, MPI.COMM_WORLD.size))
+        return 0
 
     from . import runner as run
 
@@ -76,14 +191,24 @@ def _run(args) -> int:
 
 
 def _plot(args) -> int:
-    from mpi4py import MPI
+    from .scene import SceneError
 
-    if MPI.COMM_WORLD.rank != 0:
+    _given(args, "rundir", "--times", "--out")
+    if args.times is not None:
+        for item in args.times.split(","):
+            try:
+                t = float(item)
+            except ValueError:
+                t = math.nan
+            if not (math.isfinite(t) and t >= 0):
+                raise SceneError(f"--times {args.times!r}: {item.strip()!r} is not a time in µs >= 0; expected "
+                                 f"comma-separated numbers, e.g. 22,32")
+    if _rank() != 0:
         return 0
     from .plot import run as plot_run
 
-    return plot_run.main([args.rundir] + (["--times", args.times] if args.times else [])
-                         + (["--out", args.out] if args.out else []))
+    return plot_run.main([args.rundir] + (["--times", args.times] if args.times is not None else [])
+                         + (["--out", args.out] if args.out is not None else []))
 
 
 def _sweep(argv) -> int:
@@ -92,9 +217,23 @@ def _sweep(argv) -> int:
     return sweep.main(argv)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse whose messages come from rank 0 only (every rank exits 2 on an error)."""
+
+    def error(self, message):
+        if _rank() == 0:
+            self.print_usage(sys.stderr)
+            print(f"{self.prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+    def _print_message(self, message, file=None):
+        if _rank() == 0:
+            super()._print_message(message, file)
+
+
 def main(argv=None) -> int:
     logging.getLogger().setLevel(logging.WARNING)  # keep ffcx's compiler chatter quiet
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="fricfem", description="dynamic frictional sliding between two elastic plates struck at one edge")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("mesh", help="build a two-plate mesh; print its sizes as JSON")
@@ -105,6 +244,7 @@ def main(argv=None) -> int:
                    help="override a mesh parameter in metres (e.g. --set fine_x1=0.08)")
     p.add_argument("--info", action="store_true", help="print JSON with cells, dofs, interface_facets, min_altitude_m")
     p.add_argument("--write", metavar="FILE.msh", help="also write the gmsh model")
+    p.add_argument("--force", action="store_true", help="build a mesh above the budget of 5e6 quadrilaterals")
     p.set_defaults(func=_mesh)
     p = sub.add_parser("scenes", help="list the shipped scenes (--keys: every scene key)")
     p.add_argument("--keys", action="store_true",
@@ -117,6 +257,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="run directory (default runs/<scene>)")
     p.add_argument("--overwrite", action="store_true", help="replace the run in a non-empty --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--check", action="store_true",
+                   help="validate the scene and print its size and cost estimate; run nothing (exit 0: valid "
+                        "and within the budget, or --force)")
+    p.add_argument("--force", action="store_true",
+                   help="run a scene whose estimated cost is above the budget (docs/scenes.md)")
     p.set_defaults(func=_run)
     p = sub.add_parser("plot", help="figures of a run directory")
     p.add_argument("rundir")
@@ -128,12 +273,17 @@ def main(argv=None) -> int:
         return _sweep(argv[1:])
     sub.add_parser("sweep", help="run a Σ0 × V_imp grid of a scene and map the sliding modes "
                                  "(see `fricfem sweep --help`)")
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as stop:
+        return int(stop.code or 0) if not isinstance(stop.code, str) else 2
     try:
         return args.func(args)
-    except ValueError as err:
-        print(f"fricfem: error: {err}", file=sys.stderr)
-        return 2
+    except ValueError as err:  # SceneError and every other bad-input error
+        return _error(str(err))
+    except BrokenPipeError:  # `fricfem ... | head`: the reader left
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

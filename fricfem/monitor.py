@@ -14,6 +14,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from .scene.validate import field_steps
+
 
 class Progress:
     """A progress bar with ETA on stderr (rank 0): redrawn every half second on a
@@ -133,7 +135,7 @@ class Monitor:
         self.writer = writer
         self.every = every  # interface snapshot every this many steps
         self.flush = flush  # callable(state): write what is pending and the summary so far
-        self.field_steps = sorted({int(round(t / model.dt)) for t in scene.output["fields"]})
+        self.field_steps = field_steps(scene.output["fields"], model.dt, scene.t_end)
         self.comm = model.comm
         self.tip_t, self.tip_x = [], []
         self.initiation = None

@@ -78,10 +78,20 @@ class Point(NamedTuple):
 # --------------------------------------------------------------------------- grid and scenes
 
 
+#: Most values on one axis of a map.
+MAX_AXIS = 100
+
+
 def parse_axis(text: str, name: str, unit: str) -> tuple:
-    """'0.9,2,4' -> (0.9, 2.0, 4.0), sorted; every value finite and > 0, no duplicates."""
+    """'0.9,2,4' -> (0.9, 2.0, 4.0), sorted; every value finite and > 0, no duplicates,
+    at most :data:`MAX_AXIS` of them."""
+    if not text.strip():
+        raise SceneError(f"{name} {text!r}: empty; expected a comma-separated list, e.g. {name} 2,10,40")
+    items = text.split(",")
+    if len(items) > MAX_AXIS:
+        raise SceneError(f"{name}: {len(items)} values; at most {MAX_AXIS} per axis")
     values = []
-    for item in text.split(","):
+    for item in items:
         item = item.strip()
         try:
             v = float(item)
@@ -396,24 +406,61 @@ def parser(comm=MPI.COMM_WORLD) -> argparse.ArgumentParser:
     p.add_argument("--ranks-per-scene", type=int, default=1, metavar="K",
                    help="run each point on K ranks (K divides the number of ranks; default 1)")
     p.add_argument("--quiet", action="store_true", help="no per-point progress lines on stderr")
+    p.add_argument("--force", action="store_true",
+                   help="run points (or a map) whose estimated cost is above the budget (docs/scenes.md)")
     p.comm = comm
     return p
+
+
+def _check_cost(args, s, v, comm) -> None:
+    """Every point's scene within the budget (each point, and the map's total dof·steps),
+    unless ``--force``; the points' scale warnings once, on rank 0.  Nothing is built."""
+    from .scene import cost
+
+    _, points = plan(args.scene, s, v, args.set, args.preset, args.variants, Path(args.out))
+    total = 0.0
+    warned = []
+    for p in points:
+        try:
+            est = cost.check(p.job.scene, force=args.force)
+        except SceneError as err:
+            raise SceneError(f"point Σ0 = {tag(p.sigma0_mpa)} MPa, V_imp = {tag(p.v_imp)} m/s: {err}") from None
+        total += est.dof_steps
+        warned += [w for w in p.job.scene.warnings if w not in warned]
+    if total > cost.BUDGET["dof_steps"] and not args.force:
+        raise SceneError(f"{len(points)} points: about {total:.3g} dof·steps in all, above the budget of "
+                         f"{cost.BUDGET['dof_steps']:.3g}; pass --force to run them anyway")
+    if comm.rank == 0:
+        for w in warned[:3]:
+            print(f"fricfem sweep: warning: {w}", file=sys.stderr)
+        if len(warned) > 3:
+            print(f"fricfem sweep: warning: ... and {len(warned) - 3} more", file=sys.stderr)
 
 
 def main(argv=None, comm=MPI.COMM_WORLD) -> int:
     """``fricfem sweep ...`` (collective): 0 when every point is complete, 1 if some are not
     (failed or interrupted: rerun to resume), 2 on bad input (nothing run)."""
-    args = parser(comm).parse_args(argv)
+    try:
+        args = parser(comm).parse_args(argv)
+    except SystemExit as stop:
+        return 2 if stop.code else 0
     try:
         if args.sigma0 is None and args.grid is None:
             raise SceneError("--sigma0: give the Σ0 values (MPa), or --grid default")
         if args.v_imp is None and args.grid is None:
             raise SceneError("--v-imp: give the V_imp values (m/s), or --grid default")
-        s = parse_axis(args.sigma0, "--sigma0", "MPa") if args.sigma0 else DEFAULT_SIGMA0_MPA
-        v = parse_axis(args.v_imp, "--v-imp", "m/s") if args.v_imp else DEFAULT_V_IMP
+        if args.grid and args.sigma0 is not None and args.v_imp is not None:
+            raise SceneError("--grid default: not used when --sigma0 and --v-imp are both given")
+        for opt in ("out", "label", "scene"):
+            value = getattr(args, opt)
+            if value is not None and not value.strip():
+                raise SceneError(f"{'--' + opt if opt != 'scene' else 'BASE_SCENE'} {value!r}: empty")
+        s = parse_axis(args.sigma0, "--sigma0", "MPa") if args.sigma0 is not None else DEFAULT_SIGMA0_MPA
+        v = parse_axis(args.v_imp, "--v-imp", "m/s") if args.v_imp is not None else DEFAULT_V_IMP
         if args.ranks_per_scene < 1 or comm.size % args.ranks_per_scene:
             raise SceneError(f"--ranks-per-scene {args.ranks_per_scene}: must divide the number of ranks "
                              f"({comm.size})")
+        _check_cost(args, s, v, comm)
         res = sweep(args.scene, s, v, args.out, args.set, args.preset, args.label, args.variants,
                     args.overwrite, args.quiet, comm, args.ranks_per_scene)
     except SceneError as err:

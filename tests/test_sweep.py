@@ -95,7 +95,7 @@ def test_small_map_runs_then_resumes(tmp_dir_shared, comm, capsys):
     (["--set", "time.end"], "expected <section.key>=<value>"),
     (["--sigma0", "6,-2"], "--sigma0: -2 MPa must be a positive number"),
     (["--v-imp", "2,fast"], "'fast' is not a number [m/s]"),
-    (["--sigma0", "2000"], "loading.sigma0 = 2000000000.0 Pa: must lie in [0, 1e+09]"),
+    (["--sigma0", "2000"], "loading.sigma0 = 2000000000.0 Pa: must lie in [1, 1e+09]"),
 ])
 def test_bad_input_is_refused_before_any_run(tmp_dir_shared, comm, capsys, extra, message):
     out = tmp_dir_shared / "bad"

@@ -85,7 +85,7 @@ def main():
         row_bytes = (1 + 3 * len(STATIONS_MM)) * 14 + 1
         args.every = int(np.ceil(t.size * row_bytes / args.max_bytes))
 
-    cols, st_info = [], []
+    st_info = []
     for xs_mm in STATIONS_MM:
         k = int(np.argmin(np.abs(x - xs_mm * 1e-3)))
         st_info.append((xs_mm, k, x[k]))

@@ -46,7 +46,8 @@ MU_S, MU_D, V0, V1, B, P, M, L0, L1, L2, C, D, THETA0_INIT, GAMMA, SUB_TOL, SUB_
 
 PARAMS = (
     Param("mu_s", 0.6, "", 0.0, 1e4, "static friction coefficient μs (a large value locks a barrier)"),
-    Param("mu_d", 0.5, "", 0.0, 5.0, "dynamic friction coefficient μd"),
+    Param("mu_d", 0.5, "", 1e-3, 5.0, "dynamic friction coefficient μd (> 0: at μd = 0 the strength g(θ0) "
+                                      "vanishes at fast slip and the slip rate is unbounded)"),
     Param("V0", 100.0, "m/s", 1e-6, 1e6, "reference slip rate of the rate sensitivity"),
     Param("V1", 26.0, "m/s", 1e-6, 1e6, "slip rate of the steady-state weakening"),
     Param("B", 4.6, "", 1e-3, 1e3, "aging rate of θ0 (seconds of θ0 per second)"),

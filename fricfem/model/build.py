@@ -22,6 +22,7 @@ from ..step.fused import FusedBulk, block_rows
 from ..step.interface import Interface, RigidInterface
 from . import interface as iface_mod
 from . import mesh as mesh_mod
+from .grid import INTERFACE_KINDS
 from .assembly import (_per_point, canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
                        impact_dofs, max_eigenvalue, petsc_matrix, round_down)
 from .numbering import Numbering, numbering
@@ -66,11 +67,6 @@ class Model(NamedTuple):
     num: Numbering  # this rank's dofs against the grid
 
 
-#: interface kinds: the paper's elastic interface (springs C_n, C_s, Gauss points),
-#: or rigid split-node pairs
-INTERFACE_KINDS = ("elastic", "rigid")
-
-
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
           dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic",
@@ -89,6 +85,8 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
               or "rigid" (split-node pairs: the traction from the pairs' trial velocities)
     absorbing outer edges with dashpots (of :data:`fricfem.model.grid.OUTER`)
     """
+    if interface_kind not in INTERFACE_KINDS:
+        raise ValueError(f"interface_kind = {interface_kind!r}: one of {INTERFACE_KINDS}")
     comm = pm.mesh.comm
     V = function_space(pm.mesh)
     num = numbering(pm, V)
@@ -131,7 +129,7 @@ def impact_tags(scene) -> tuple:
 def point_params(scene, x1) -> np.ndarray:
     """Packed friction parameters per interface point, float64[n, n_params]:
     the scene's, with each ``friction.regions`` entry applied where
-    x1_min <= x1 <= x1_max (later regions win where they overlap)."""
+    x1_min <= x1 <= x1_max (regions may not overlap: scene validation)."""
     law = friction.get_law(scene.law)
     out = np.tile(friction.pack(law, scene.params), (len(x1), 1))
     for reg in scene.regions:
@@ -156,7 +154,7 @@ def build_model(scene, comm):
     model = build(
         pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
         scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
-        dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=getattr(scene, "interface_kind", "elastic"),
-        absorbing=getattr(scene, "absorbing", ()),
+        dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=scene.interface_kind,
+        absorbing=scene.absorbing,
     )
     return pm, model

@@ -35,6 +35,10 @@ TAGS = {
 #: The outer edges by name (each can be made absorbing).
 OUTER = ("bottom", "top", "right", "left")
 
+#: Interface kinds: the paper's elastic interface (springs C_n, C_s at Gauss
+#: points) or rigid split-node pairs.
+INTERFACE_KINDS = ("elastic", "rigid")
+
 
 def axis_nodes(length, fine, h, ratio, hmax, breaks) -> np.ndarray:
     """Node coordinates on ``[0, length]``: spacing ``h`` inside ``fine = (a, b)``,

@@ -15,9 +15,11 @@ class Material:
     E [Pa], nu [-], rho [kg/m³]; ``plane`` is ``"stress"`` (the paper) or ``"strain"``.
     """
 
-    E: float = field(5.2e9, "Pa", 0.0, 1e13, "Young's modulus", open_low=True)
-    nu: float = field(0.34, "", -1.0, 0.5, "Poisson's ratio", open_low=True, open_high=True)
-    rho: float = field(1230.0, "kg/m^3", 0.0, 1e5, "density", open_low=True)
+    E: float = field(5.2e9, "Pa", 1e3, 1e13, "Young's modulus (a soft gel to stiffer than diamond)")
+    nu: float = field(0.34, "", -1.0, 0.5, "Poisson's ratio (near 0.5 in plane strain, or near -1, the "
+                                          "stable step shrinks: see the cost estimate)", open_low=True,
+                      open_high=True)
+    rho: float = field(1230.0, "kg/m^3", 1.0, 1e5, "density")
     plane: str = field("stress", doc="in-plane state: 'stress' (the paper) or 'strain'", kind=str,
                        choices=("stress", "strain"))
 

@@ -30,8 +30,8 @@ class MeshSpec:
     length: float = field(0.137, "m", 0.0, 10.0, "plate length along the interface (x1)", open_low=True)
     height: float = field(0.075, "m", 0.0, 10.0, "height of EACH plate (x2); the specimen is twice as tall",
                           open_low=True)
-    dx: float = field(0.30e-3, "m", 0.0, 1.0, "cell size along x1 in the fine region", open_low=True)
-    dy: float = field(0.20e-3, "m", 0.0, 1.0, "cell size along x2 in the fine region", open_low=True)
+    dx: float = field(0.30e-3, "m", 1e-7, 1.0, "cell size along x1 in the fine region")
+    dy: float = field(0.20e-3, "m", 1e-7, 1.0, "cell size along x2 in the fine region")
     fine_x0: float = field(0.0, "m", 0.0, 10.0, "fine region start along x1")
     fine_x1: float = field(0.060, "m", 0.0, 10.0, "fine region end along x1", open_low=True)
     fine_height: float = field(2.0e-3, "m", 0.0, 10.0, "fine region extent above and below the interface",

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from .. import friction
 from ..keys import NUM, Key, keys_of
+from ..model.grid import INTERFACE_KINDS, OUTER
 from ..model.loading import ImpactPulse
 from ..model.material import Material
 from ..model.mesh import MeshSpec
@@ -19,6 +20,12 @@ from ..model.mesh import MeshSpec
 
 class SceneError(ValueError):
     """A scene is malformed; the message names the key, the value and what is allowed."""
+
+
+def shown(v, width: int = 80) -> str:
+    """``repr(v)``, shortened to about ``width`` characters for a message."""
+    text = repr(v)
+    return text if len(text) <= width else f"{text[:width - 20]}… ({len(text)} characters)"
 
 
 def _mesh_keys() -> dict:
@@ -30,7 +37,8 @@ def _mesh_keys() -> dict:
 def _loading_keys() -> dict:
     pulse = keys_of(ImpactPulse)
     return {
-        "sigma0": Key(NUM, 6e6, "Pa", 0.0, 1e9, "initial compression Σ0"),
+        "sigma0": Key(NUM, 6e6, "Pa", 1.0, 1e9, "initial compression Σ0 (> 0: every law's strength is "
+                      "proportional to it; docs/scenes.md)"),
         **{k: pulse[k] for k in ("v_imp", "t_rise", "t_hold_end", "t_fall")},
         "symmetric": Key(bool, False, doc="strike both plates (|x2| <= b)"),
         **{k: pulse[k] for k in ("direction", "kind", "impedance")},
@@ -40,50 +48,65 @@ def _loading_keys() -> dict:
 #: The schema: section -> key -> :class:`fricfem.keys.Key` ("" is the top level).
 SCHEMA = {
     "": {
-        "name": Key(str, "scene", doc="scene name"),
-        "description": Key(str, "", doc="one line on what the scene shows"),
+        "name": Key(str, "scene", doc="scene name, an identifier: 1–128 letters, digits, '_', '-', '.', not "
+                                      "'.' or '..' (default: the file's name); the run directory is runs/<name>"),
+        "description": Key(str, "", doc="one line on what the scene shows (at most 2000 characters)"),
         "base": Key(str, "", doc="shipped scene or .toml file this one starts from"),
     },
     "mesh": {"preset": Key(str, "reference", doc="a mesh of meshes/ (coarse, reference, half, fine, "
                                                  "rupture_band) or a path to a .toml mesh file"),
-             **_mesh_keys()},
+             **_mesh_keys(),
+             "absorbing": Key(list, [], doc="outer edges with absorbing dashpots (ρc_l normal, ρc_s "
+                                            f"tangential), any of {', '.join(map(repr, OUTER))}; the "
+                                            "others are traction-free")},
     "material": keys_of(Material),
     "loading": _loading_keys(),
     "interface": {
-        "Cn": Key(NUM, 3e11, "Pa/m", 0.0, None, "normal stiffness C_n", open_low=True),
-        "Cs": Key(NUM, 1e11, "Pa/m", 0.0, None, "shear stiffness C_s", open_low=True),
-        "tau0": Key(NUM, 0.0, "Pa", None, None, "initial shear traction"),
-        "patches": Key(list, [], doc="[{x1_min, x1_max, tau0}] initial shear traction patches"),
+        "kind": Key(str, "elastic", doc="'elastic' (the paper's: springs C_n, C_s at the Gauss points) or "
+                                        "'rigid' (split-node pairs, no spring: the traction from the pairs' "
+                                        "trial velocities; Cn and Cs unused)", choices=INTERFACE_KINDS),
+        "Cn": Key(NUM, 3e11, "Pa/m", 1e6, 1e16, "normal stiffness C_n (a stiff spring shrinks the step: "
+                                                 "see the cost estimate)"),
+        "Cs": Key(NUM, 1e11, "Pa/m", 1e6, 1e16, "shear stiffness C_s"),
+        "tau0": Key(NUM, 0.0, "Pa", -1e9, 1e9, "initial shear traction"),
+        "patches": Key(list, [], doc="[{x1_min, x1_max, tau0}] initial shear traction patches; they may not "
+                                     "overlap and each holds an interface point"),
     },
     "friction": {
         "law": Key(str, "povirk_needleman", doc="friction law name"),
         "params": Key(dict, {}, doc="law parameters (friction.params.<name>, below)"),
-        "regions": Key(list, [], doc="[{x1_min, x1_max, params}] piecewise-constant overrides"),
+        "regions": Key(list, [], doc="[{x1_min, x1_max, params}] piecewise-constant overrides; they may not "
+                                     "overlap and each holds an interface point"),
     },
     "time": {
-        "end": Key(NUM, 40e-6, "s", 0.0, 1.0, "end time", open_low=True),
+        "end": Key(NUM, 40e-6, "s", 0.0, 1.0, "end time (at least one step)", open_low=True),
         "dt_safety": Key(NUM, 0.9, "", 0.0, 1.0, "fraction of the stable step", open_low=True, open_high=True),
-        "dt": Key(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety)"),
+        "dt": Key(NUM, 0.0, "s", 0.0, 1e-3, "fixed step (0: from dt_safety; a step > 0 must fit "
+                                             "time.end at least once)"),
         "allow_unstable_dt": Key(bool, False, doc="accept a time.dt above the stable step (stability "
                                                   "experiments; the watchdog guards the run)"),
-        "stop_at_tip": Key(NUM, 0.0, "m", 0.0, None,
-                           "end the run once the sliding tip passes this x1 (0: never), e.g. the fine region's end"),
+        "stop_at_tip": Key(NUM, 0.0, "m", 0.0, 10.0, "end the run once the sliding tip passes this x1 "
+                                                     "(0: never; at most mesh.length), e.g. the fine region's end"),
         "skip_quiet": Key(bool, True, doc="skip the rows the motion has not reached yet (bit-identical "
                                           "to computing every row; false: compute every row)"),
     },
     "watchdog": {
         "enabled": Key(bool, True, doc="stop a diverging run with a message"),
-        "max_slip_rate": Key(NUM, 0.0, "m/s", 0.0, None,
+        "max_slip_rate": Key(NUM, 0.0, "m/s", 0.0, 1e9,
                              "slip rates beyond this are taken as divergence (0: the material's c_l)"),
-        "energy_factor": Key(NUM, 1.5, "", 1.0, None, "stop when stored energy exceeds this × the input work",
+        "energy_factor": Key(NUM, 1.5, "", 1.0, 1e6, "stop when stored energy exceeds this × the input work",
                              open_low=True),
     },
     "output": {
-        "fields": Key(list, [], "s", doc="times of field snapshots (displacement, velocity, σ1 − σ2)"),
+        "fields": Key(list, [], "s", doc="times of field snapshots (displacement, velocity, σ1 − σ2), each in "
+                                         "(0, time.end], distinct; written at the nearest step"),
         "interface_every": Key(NUM, 0.2e-6, "s", 0.0, 1.0, "cadence of interface snapshots", open_low=True),
-        "stations": Key(dict, {"x16.1mm": 16.1e-3}, "m", doc="station name -> x1 (histories every step)"),
-        "energy_every": Key(int, 50, "steps", 0, None, "energy evaluation cadence (0: never)"),
-        "flush_every": Key(NUM, 2.0, "s", 0.0, None, "wall-clock seconds between flushes", open_low=True),
+        "stations": Key(dict, {"x16.1mm": 16.1e-3}, "m", doc="station name -> x1 in [0, mesh.length] "
+                                                             "(histories every step); a name is 1–64 letters, "
+                                                             "digits, '_', '-', '.', not '.' or '..', unique "
+                                                             "ignoring case; a scene's table replaces its base's"),
+        "energy_every": Key(int, 50, "steps", 0, 10**9, "energy evaluation cadence (0: never)"),
+        "flush_every": Key(NUM, 2.0, "s", 0.0, 1e6, "wall-clock seconds between flushes", open_low=True),
         "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
     },
 }

@@ -2,7 +2,24 @@
 rules that tie keys together, before any heavy work — into a :class:`Scene`.
 
 Every problem is one :class:`~.schema.SceneError` naming the key, the value
-and what is allowed.
+and what is allowed.  The rules between keys (docs/scenes.md):
+
+* names: ``name`` and station names are identifiers (:func:`check_identifier`),
+  station names unique ignoring case;
+* mesh: the fine region inside the plate, cells no larger than it, at most
+  :data:`fricfem.scene.cost.HARD` quadrilaterals (the budget, lifted by
+  ``--force``, is :func:`fricfem.scene.cost.check`'s);
+* friction: μs > 0 and μs >= μd, C + D > 0 (laws with those parameters), every
+  slip distance shorter than the plate; ``friction.regions`` and
+  ``interface.patches`` do not overlap and each holds an interface Gauss point;
+* time: at least one step before ``time.end``; a fixed ``time.dt`` not above
+  the stable step unless ``time.allow_unstable_dt``; ``time.stop_at_tip`` on
+  the plate;
+* output: field times in (0, time.end], distinct, none less than half a step;
+  stations on the interface.
+
+Scale checks that do not make a scene meaningless give warnings instead
+(:attr:`Scene.warnings`; the command prints them on stderr).
 """
 
 from __future__ import annotations
@@ -10,18 +27,32 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import re
 from typing import NamedTuple
 
 from .. import friction
-from ..keys import NUM, Key
+from ..keys import NUM, Key, keys_of
 from ..model import mesh as mesh_mod
-from ..model.grid import estimate_quads
+from ..model.grid import OUTER
 from ..model.loading import ImpactPulse
 from ..model.material import Material
-from .schema import SCHEMA, SceneError
+from . import cost
+from .load import read_toml
+from .schema import SCHEMA, SceneError, shown
 
-#: Largest mesh accepted, in quadrilaterals.
-MAX_QUADS = 5_000_000
+#: Largest mesh accepted by the scene's own (default) budget, in quadrilaterals (``--force`` lifts it
+#: up to ``cost.HARD``).
+MAX_QUADS = int(cost.BUDGET["quads"])
+
+#: An identifier: scene names (run directories) and station names (HDF5 paths).
+_IDENT = re.compile(r"[A-Za-z0-9_.\-]+")
+
+#: Friction parameters that are slip distances [m].
+SLIP_DISTANCES = ("Dc", "L0", "L1", "L2", "L")
+#: A slip distance above this fraction of the plate gets a warning (slips in a plate are far shorter).
+SLIP_SCALE_WARN = 0.01
+#: A cohesive / process zone resolved by fewer cells than this gets a warning.
+ZONE_CELLS = 3.0
 
 
 class Scene(NamedTuple):
@@ -50,21 +81,35 @@ class Scene(NamedTuple):
     output: dict
     watchdog: dict
     raw: dict  # the merged TOML tables, for the record
+    warnings: tuple = ()  # one line each: scale checks that did not refuse the scene
+    interface_kind: str = "elastic"  # model.grid.INTERFACE_KINDS
+    absorbing: tuple = ()  # outer edges with dashpots (model.grid.OUTER)
+
+
+def check_identifier(where: str, v, max_len: int) -> str:
+    """``v`` if it is an identifier: 1–``max_len`` characters among letters, digits,
+    ``_ - .``, and not ``.`` or ``..`` (safe as a file name and an HDF5 path)."""
+    if not isinstance(v, str):
+        raise SceneError(f"{where} = {shown(v)}: expected a string")
+    if not v or len(v) > max_len or not _IDENT.fullmatch(v) or v in (".", ".."):
+        raise SceneError(f"{where} = {shown(v)}: must be 1–{max_len} letters, digits, '_', '-' or '.', and not "
+                         f"'.' or '..'")
+    return v
 
 
 def check_value(where: str, k: Key, v):
     """``v`` if it fits key ``k`` (type, finiteness, range, choices), else a SceneError."""
     if k.kind == NUM:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise SceneError(f"{where} = {v!r}: expected a number [{k.unit}] ({k.doc})")
+            raise SceneError(f"{where} = {shown(v)}: expected a number [{k.unit}] ({k.doc})")
         if not math.isfinite(v):
             raise SceneError(f"{where} = {v!r}: must be finite")
     elif k.kind is int:
         if isinstance(v, bool) or not isinstance(v, int):
-            raise SceneError(f"{where} = {v!r}: expected a whole number [{k.unit}] ({k.doc})")
+            raise SceneError(f"{where} = {shown(v)}: expected a whole number [{k.unit}] ({k.doc})")
     elif not isinstance(v, k.kind):
         names = {str: "a string", bool: "true or false", list: "a list", dict: "a table"}
-        raise SceneError(f"{where} = {v!r}: expected {names.get(k.kind, k.kind)} ({k.doc})")
+        raise SceneError(f"{where} = {shown(v)}: expected {names.get(k.kind, k.kind)} ({k.doc})")
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         lo_bad = k.low is not None and (v <= k.low if k.open_low else v < k.low)
         hi_bad = k.high is not None and (v >= k.high if k.open_high else v > k.high)
@@ -73,7 +118,7 @@ def check_value(where: str, k: Key, v):
                              .replace("  ", " "))
     if k.choices and v not in k.choices:
         sep = " or " if len(k.choices) == 2 else ", "
-        raise SceneError(f"{where} = {v!r}: allowed {sep.join(map(repr, k.choices))}")
+        raise SceneError(f"{where} = {shown(v)}: allowed {sep.join(map(repr, k.choices))}")
     return v
 
 
@@ -82,7 +127,7 @@ def _section(raw: dict, name: str) -> dict:
     schema = SCHEMA[name]
     table = raw if name == "" else raw.get(name, {})
     if not isinstance(table, dict):
-        raise SceneError(f"[{name}]: expected a table, got {table!r}")
+        raise SceneError(f"[{name}]: expected a table, got {shown(table)}")
     out = {}
     for key, value in table.items():
         if name == "" and key in SCHEMA:
@@ -98,12 +143,15 @@ def _section(raw: dict, name: str) -> dict:
     return out
 
 
-def _x1_ranges(where: str, items, length: float, keys: tuple) -> tuple:
+def _x1_ranges(where: str, items, length: float, keys: tuple, x1) -> tuple:
+    """Checked ``[{x1_min, x1_max, ...}]`` entries: inside the plate, every key of
+    ``keys`` present, no two overlapping, each holding an interface Gauss point
+    (``x1``: their positions)."""
     out = []
     for i, item in enumerate(items):
         w = f"{where}[{i}]"
         if not isinstance(item, dict):
-            raise SceneError(f"{w} = {item!r}: expected a table with {', '.join(keys)}")
+            raise SceneError(f"{w} = {shown(item)}: expected a table with {', '.join(keys)}")
         for k in item:
             if k not in keys:
                 raise SceneError(f"{w}.{k}: unknown key; allowed: {', '.join(keys)}")
@@ -111,20 +159,54 @@ def _x1_ranges(where: str, items, length: float, keys: tuple) -> tuple:
             if k not in item:
                 raise SceneError(f"{w}.{k}: missing (m)")
             check_value(f"{w}.{k}", Key(NUM, 0.0, "m", 0.0, length, "position along the interface"), item[k])
-        if not item["x1_min"] < item["x1_max"]:
-            raise SceneError(f"{w}: x1_min = {item['x1_min']!r} m must be < x1_max = {item['x1_max']!r} m")
+        lo, hi = item["x1_min"], item["x1_max"]
+        if not lo < hi:
+            raise SceneError(f"{w}: x1_min = {lo!r} m must be < x1_max = {hi!r} m")
+        for k in keys:
+            if k not in item:
+                raise SceneError(f"{w}.{k}: missing; an entry without {k} changes nothing")
+        inside = (x1 >= lo) & (x1 <= hi)
+        if not inside.any():
+            near = x1[(x1 >= lo).argmax()] if (x1 >= lo).any() else x1[-1]
+            raise SceneError(f"{w}: [{lo!r}, {hi!r}] m holds no interface point (the next one is at x1 = "
+                             f"{near:.6g} m; there are 4 Gauss points in each of the {x1.size // 4} interface "
+                             f"segments); widen it")
+        for j, other in enumerate(out):
+            shared = inside & (x1 >= other["x1_min"]) & (x1 <= other["x1_max"])
+            if max(lo, other["x1_min"]) < min(hi, other["x1_max"]) or shared.any():
+                raise SceneError(f"{w} = [{lo!r}, {hi!r}] m overlaps {where}[{j}] = [{other['x1_min']!r}, "
+                                 f"{other['x1_max']!r}] m; entries may not overlap (they may touch)")
         out.append(dict(item))
     return tuple(out)
+
+
+def _mesh_file(path: str) -> mesh_mod.MeshSpec:
+    """A mesh definition file: every key a MeshSpec field, every value in its range."""
+    table = read_toml(path, "mesh file")
+    keys = keys_of(mesh_mod.MeshSpec)
+    for k, v in table.items():
+        if k not in keys:
+            raise SceneError(f"mesh file {path!r}: unknown key {k!r}; allowed: {', '.join(keys)}")
+        check_value(f"mesh.{k} (in {path!r})", keys[k], v)
+    return mesh_mod.MeshSpec(**{k: float(v) for k, v in table.items()})
 
 
 def mesh_spec(m: dict) -> mesh_mod.MeshSpec:
     """The MeshSpec of a checked ``[mesh]`` section: the preset, its fields
     overridden, and the rules between fields."""
-    try:
-        spec = mesh_mod.preset(m["preset"])
-    except ValueError as err:
-        raise SceneError(str(err)) from None
-    spec = dataclasses.replace(spec, **{k: float(v) for k, v in m.items() if k != "preset" and v is not None})
+    ref = m["preset"]
+    if not ref.strip():
+        raise SceneError(f"mesh.preset = {ref!r}: empty; allowed: {', '.join(mesh_mod.preset_names())} "
+                         "or a path to a .toml mesh file")
+    if ref.endswith(".toml"):
+        spec = _mesh_file(ref)
+    else:
+        try:
+            spec = mesh_mod.preset(ref)
+        except ValueError as err:
+            raise SceneError(str(err)) from None
+    spec = dataclasses.replace(spec, **{k: float(v) for k, v in m.items()
+                                        if k not in ("preset", "absorbing") and v is not None})
     if not spec.fine_x0 < spec.fine_x1 <= spec.length:
         raise SceneError(f"mesh.fine_x0 = {spec.fine_x0!r} m, mesh.fine_x1 = {spec.fine_x1!r} m: the fine "
                          f"region must satisfy 0 <= fine_x0 < fine_x1 <= length = {spec.length!r} m")
@@ -137,60 +219,198 @@ def mesh_spec(m: dict) -> mesh_mod.MeshSpec:
             raise SceneError(f"mesh.{name} = {h!r} m: larger than the fine region it meshes ({span!r} m)")
     if spec.max_size < max(spec.dx, spec.dy):
         raise SceneError(f"mesh.max_size = {spec.max_size!r} m: must be >= dx and dy")
-    quads = estimate_quads(spec)
-    if quads > MAX_QUADS:
-        raise SceneError(f"mesh: about {quads:.3g} quadrilaterals requested; at most {MAX_QUADS / 1e6:g}e6 are allowed")
+    quads = cost.size_bound(spec)  # closed form first: nothing allocated for an absurd cell size
+    if quads > cost.HARD["quads"]:
+        raise SceneError(f"mesh: about {quads:.3g} quadrilaterals requested (mesh.dx = {spec.dx:g} m, mesh.dy = "
+                         f"{spec.dy:g} m); at most {MAX_QUADS / 1e6:g}e6 are allowed without --force and "
+                         f"{cost.HARD['quads']:.0e} with it")
     return spec
 
 
-def _friction(fr: dict, length: float) -> tuple:
+def validate_mesh(table: dict) -> mesh_mod.MeshSpec:
+    """The MeshSpec of a ``[mesh]`` table alone (``fricfem mesh`` without a scene), every key checked."""
+    return mesh_spec(_section({"mesh": table}, "mesh"))
+
+
+def _absorbing(edges: list) -> tuple:
+    """The checked ``mesh.absorbing`` list: outer edge names, each once."""
+    for i, e in enumerate(edges):
+        if e not in OUTER:
+            raise SceneError(f"mesh.absorbing[{i}] = {shown(e)}: allowed {', '.join(map(repr, OUTER))}")
+        if e in edges[:i]:
+            raise SceneError(f"mesh.absorbing[{i}] = {e!r}: given twice")
+    return tuple(edges)
+
+
+def _law_rules(where: str, p: dict, length: float) -> None:
+    """Rules between a law's parameters (by their names, whichever law has them)."""
+    if "mu_s" in p and "mu_d" in p:
+        if not p["mu_s"] > 0:
+            raise SceneError(f"{where}.mu_s = {p['mu_s']!r}: must be > 0 (a static friction coefficient of 0 "
+                             f"leaves the interface without strength)")
+        if p["mu_s"] < p["mu_d"]:
+            raise SceneError(f"{where}.mu_s = {p['mu_s']!r} < {where}.mu_d = {p['mu_d']!r}: the static "
+                             f"coefficient must be >= the dynamic one (equal: no weakening)")
+    if "C" in p and "D" in p and not p["C"] + p["D"] > 0:
+        raise SceneError(f"{where}.C = {p['C']!r}, {where}.D = {p['D']!r}: C + D must be > 0 (the strength "
+                         f"g(θ0)(θ1 + θ2) with θ1 + θ2 -> (C + D) T_n would vanish and the slip rate divide by "
+                         f"zero)")
+    for name in SLIP_DISTANCES:
+        if name in p and p[name] >= length:
+            raise SceneError(f"{where}.{name} = {p[name]!r} m: not smaller than the plate (mesh.length = "
+                             f"{length:g} m); slips in a plate are far shorter, so the law would never evolve — "
+                             f"a field-scale value (the slip-weakening default Dc = 0.40 m is the SCEC "
+                             f"benchmarks'); scale it to the specimen, e.g. 1e-6 to 1e-4 m")
+
+
+def _friction(fr: dict, length: float, x1) -> tuple:
     """(law name, parameters, regions) of a checked ``[friction]`` section."""
     try:
         law = friction.get_law(fr["law"])
         params = friction.validate(law, fr["params"], where="friction.params")
     except ValueError as err:
         raise SceneError(str(err)) from None
-    regions = _x1_ranges("friction.regions", fr["regions"], length, ("x1_min", "x1_max", "params"))
+    _law_rules("friction.params", params, length)
+    regions = _x1_ranges("friction.regions", fr["regions"], length, ("x1_min", "x1_max", "params"), x1)
     for i, reg in enumerate(regions):
+        w = f"friction.regions[{i}].params"
+        if not isinstance(reg["params"], dict) or not reg["params"]:
+            raise SceneError(f"{w} = {shown(reg['params'])}: expected a table of at least one parameter of "
+                             f"'{fr['law']}' ({', '.join(friction.param_names(law))})")
         try:
-            friction.validate(law, {**params, **reg.get("params", {})}, where=f"friction.regions[{i}].params")
+            merged = friction.validate(law, {**params, **reg["params"]}, where=w)
         except ValueError as err:
             raise SceneError(str(err)) from None
+        _law_rules(w, merged, length)
     return fr["law"], params, regions
+
+
+def _scale_warnings(law: str, p: dict, spec, mat: Material, sigma0: float) -> list:
+    """Warnings when a length of the law is out of scale with the plate or the cells (docs/scenes.md)."""
+    out = []
+    for name in SLIP_DISTANCES:
+        if name in p and p[name] > SLIP_SCALE_WARN * spec.length:
+            out.append(f"friction.params.{name} = {p[name]:g} m is {p[name] / spec.length:.0%} of the plate "
+                       f"(mesh.length = {spec.length:g} m): the run's slips may never reach it (laboratory "
+                       f"values are µm: the paper's L0 = 20e-6 m)")
+    zone = None
+    if "Dc" in p and p["mu_s"] > p["mu_d"]:  # slip weakening: the static cohesive zone (Day et al. 2005)
+        zone = ("cohesive zone (9π/32) μ Dc/((μs − μd) Σ0)",
+                9 * math.pi / 32 * mat.mu * p["Dc"] / ((p["mu_s"] - p["mu_d"]) * sigma0))
+    elif "L" in p and "b" in p:  # rate and state: the process zone (Lapusta & Liu 2009)
+        zone = ("process zone (9π/32) μ L/(b Σ0)", 9 * math.pi / 32 * mat.mu * p["L"] / (p["b"] * sigma0))
+    if zone is not None:
+        what, size = zone
+        if size > spec.length:
+            out.append(f"friction ({law}): the {what} = {size:.3g} m is longer than the plate "
+                       f"({spec.length:g} m): the interface cannot weaken within it")
+        elif size < ZONE_CELLS * spec.dx:
+            out.append(f"friction ({law}): the {what} = {size:.3g} m spans {size / spec.dx:.2g} cells of "
+                       f"mesh.dx = {spec.dx:g} m (fewer than {ZONE_CELLS:g}: unresolved)")
+    return out
+
+
+def field_steps(times, dt: float, t_end: float) -> list:
+    """The steps at which field snapshots at ``times`` are written: each at its
+    nearest step, kept within the run's steps 1 … floor(t_end/dt) (a validated
+    time lies in (0, t_end], so it moves by less than one step)."""
+    n_end = int(math.floor(t_end / dt + 1e-9))
+    return sorted({min(max(int(round(t / dt)), 1), n_end) for t in times})
+
+
+def _time_rules(sc: Scene) -> None:
+    """At least one step; a fixed step not above the stable one (unless allowed); field times."""
+    est = cost.estimate(sc)
+    if sc.dt:
+        if sc.t_end < sc.dt:
+            raise SceneError(f"time.end = {sc.t_end!r} s is shorter than one step time.dt = {sc.dt!r} s: "
+                             f"the run would take no step")
+        crit = est.dt_crit[1]  # the stable step is at most this
+        if sc.dt > crit and not sc.allow_unstable_dt:
+            raise SceneError(f"time.dt = {sc.dt!r} s exceeds the stable step of this mesh and interface "
+                             f"(at most {crit:.3g} s); use time.dt_safety in (0, 1) (or set "
+                             f"time.allow_unstable_dt = true for a stability experiment)")
+    elif sc.t_end < est.dt_high:
+        raise SceneError(f"time.end = {sc.t_end!r} s is shorter than one step (up to {est.dt_high:.3g} s on this "
+                         f"mesh with time.dt_safety = {sc.dt_safety:g}): the run would take no step")
+    times = sc.output["fields"]
+    for i, t in enumerate(times):
+        if t < 0.5 * est.dt_high:
+            raise SceneError(f"output.fields[{i}] = {t!r} s: less than half a step (the step is up to "
+                             f"{est.dt_high:.3g} s): it would be the state at t = 0, which is not written")
+        for j, u in enumerate(times[:i]):
+            if abs(t - u) < est.dt_high:
+                raise SceneError(f"output.fields[{i}] = {t!r} s: " + ("given twice" if t == u else
+                                 f"within one step (up to {est.dt_high:.3g} s) of output.fields[{j}] = {u!r} s; "
+                                 f"both would be the same snapshot"))
+    if sc.dt:
+        n_end = math.floor(sc.t_end / sc.dt + 1e-9)
+        for i, t in enumerate(times):
+            if not 1 <= round(t / sc.dt) <= n_end:
+                raise SceneError(f"output.fields[{i}] = {t!r} s rounds to step {round(t / sc.dt)} of time.dt = "
+                                 f"{sc.dt!r} s, outside the run's steps 1 … {n_end}")
 
 
 def validate(raw: dict) -> Scene:
     """Check every key and value of the merged tables; return a :class:`Scene`."""
+    if not isinstance(raw, dict) or not raw:
+        raise SceneError("scene: no keys")
     for key in raw:
-        if key not in SCHEMA[""] and key not in SCHEMA:
-            raise SceneError(f"{key}: unknown key or section; allowed: {', '.join(SCHEMA[''])}, "
+        if key not in SCHEMA[""] and key not in SCHEMA or key == "":
+            raise SceneError(f"{key or repr(key)}: unknown key or section; allowed: "
+                             f"{', '.join(k for k in SCHEMA[''])}, "
                              f"[{'], ['.join(s for s in SCHEMA if s)}]")
     top = _section(raw, "")
+    try:
+        check_identifier("name", top["name"], 128)
+    except SceneError as err:
+        raise SceneError(f"{err} (a scene without name = ... takes its file's name)") from None
+    if len(top["description"]) > 2000:
+        raise SceneError(f"description: {len(top['description'])} characters; at most 2000")
     sec = {name: _section(raw, name) for name in SCHEMA if name}
     spec = mesh_spec(sec["mesh"])
+    grid_x1 = cost.axes(spec)[0]  # the interface points: node pairs (rigid) or 4 Gauss points a segment
+    x1 = grid_x1 if sec["interface"]["kind"] == "rigid" else cost.gauss_x1(grid_x1)
     mat = Material(**{k: (float(v) if k != "plane" else v) for k, v in sec["material"].items()})
     ld = sec["loading"]
     if not ld["t_hold_end"] >= ld["t_rise"]:
         raise SceneError(f"loading.t_hold_end = {ld['t_hold_end']!r} s: must be >= t_rise = {ld['t_rise']!r} s")
     pulse = ImpactPulse(float(ld["v_imp"]), float(ld["t_rise"]), float(ld["t_hold_end"]), float(ld["t_fall"]),
                         ld["direction"], ld["kind"], float(ld["impedance"]))
-    law, params, regions = _friction(sec["friction"], spec.length)
+    law, params, regions = _friction(sec["friction"], spec.length, x1)
     itf = sec["interface"]
-    patches = _x1_ranges("interface.patches", itf["patches"], spec.length, ("x1_min", "x1_max", "tau0"))
+    patches = _x1_ranges("interface.patches", itf["patches"], spec.length, ("x1_min", "x1_max", "tau0"), x1)
     for i, p in enumerate(patches):
-        check_value(f"interface.patches[{i}].tau0", SCHEMA["interface"]["tau0"], p.get("tau0", 0.0))
+        check_value(f"interface.patches[{i}].tau0", SCHEMA["interface"]["tau0"], p["tau0"])
     tm = sec["time"]
+    if tm["stop_at_tip"] > spec.length:
+        raise SceneError(f"time.stop_at_tip = {tm['stop_at_tip']!r} m: beyond the plate (mesh.length = "
+                         f"{spec.length:g} m); 0 never stops")
     out = sec["output"]
-    for i, t in enumerate(out["fields"]):
-        check_value(f"output.fields[{i}]", Key(NUM, 0.0, "s", 0.0, tm["end"], "snapshot time"), t)
+    seen = {}
     for name, x in out["stations"].items():
+        check_identifier("output.stations: a station name", name, 64)
+        if name.casefold() in seen:
+            raise SceneError(f"output.stations.{name}: the same name as output.stations.{seen[name.casefold()]} "
+                             f"(names must differ ignoring case)")
+        seen[name.casefold()] = name
         check_value(f"output.stations.{name}", Key(NUM, 0.0, "m", 0.0, spec.length,
                                                    "station position along the interface"), x)
-    return Scene(
+    for i, t in enumerate(out["fields"]):
+        check_value(f"output.fields[{i}]", Key(NUM, 0.0, "s", 0.0, tm["end"], "snapshot time", open_low=True), t)
+    absorbing = _absorbing(sec["mesh"]["absorbing"])
+    if itf["kind"] == "rigid" and friction.get_law(law).rigid_kernel is None:
+        rigid = sorted(n for n, lw in friction.LAWS.items() if lw.rigid_kernel is not None)
+        raise SceneError(f"interface.kind = 'rigid': the law {law!r} has no rigid (split-node) form; "
+                         f"allowed with it: {', '.join(rigid)}")
+    scene = Scene(
         name=top["name"], description=top["description"], mesh=spec, material=mat, pulse=pulse,
         sigma0=float(ld["sigma0"]), symmetric=ld["symmetric"], Cn=float(itf["Cn"]), Cs=float(itf["Cs"]),
         tau0=float(itf["tau0"]), tau0_patches=patches, law=law, params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
         stop_at_tip=float(tm["stop_at_tip"]), allow_unstable_dt=tm["allow_unstable_dt"],
         skip_quiet=tm["skip_quiet"], output=out, watchdog=sec["watchdog"], raw=raw,
+        interface_kind=itf["kind"], absorbing=absorbing,
     )
+    _time_rules(scene)
+    return scene._replace(warnings=tuple(_scale_warnings(law, params, spec, mat, scene.sigma0)))

@@ -1,0 +1,480 @@
+"""Bad-input corpus: every scene key × {wrong type, NaN, +inf, −inf, negative, zero,
+huge}, the rules between keys, scene files and command-line arguments — each run
+as ``fricfem run`` (or ``mesh`` / ``plot`` / ``sweep``) through the command line
+in a subprocess with a timeout, serially, one rank.
+
+Each outcome is one of
+
+* ``clear``: exit 2, exactly one ``fricfem…: error:`` line on stderr naming the
+  key (or the file, or the argument), no traceback, no run directory made;
+* ``accepted``: exit 0 for a case declared acceptable on purpose (its reason is
+  in the table), and the short run it starts completes;
+* ``other``: anything else — a traceback, a hang (timeout), another exit
+  status, an undeclared acceptance, an error that does not name the key.
+
+Accepted cases run for real but short: the coarse mesh, ``time.end = 2 µs``, no
+field snapshots.  Then the cost estimate is checked against real runs of the
+coarse, reference and rupture_band meshes (their ``summary.json``).
+
+    .venv/bin/python benchmarks/bad_input.py          # ~15 min; results/bad_input.{md,json}
+    .venv/bin/python benchmarks/bad_input.py --only cli,file   # a subset, not written
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FRICFEM = ROOT / ".venv" / "bin" / "fricfem"
+RESULTS = ROOT / "benchmarks" / "results"
+TIMEOUT = 60.0
+#: every case starts from this: small and quick if it is accepted and runs
+SHORT = ["--set", "mesh.preset='coarse'", "--set", "time.end=2e-6", "--set", "output.fields=[]"]
+
+VARIANTS = ("wrong type", "NaN", "+inf", "-inf", "negative", "zero", "huge")
+NUM_TEXT = {"NaN": "nan", "+inf": "inf", "-inf": "-inf", "negative": "-1.0", "zero": "0.0", "huge": "1e300"}
+
+#: (key, variant) -> why the value is accepted (and then run).
+ACCEPTED = {
+    ("loading.v_imp", "zero"): "no impact: the edge is free (a rupture problem, as rupture_sw)",
+    ("material.nu", "zero"): "a Poisson's ratio of 0 is a material (cork)",
+    ("interface.tau0", "zero"): "no initial shear traction (the paper's)",
+    ("interface.tau0", "negative"): "an initial shear traction of either sign",
+    ("time.dt", "zero"): "0 means the step from time.dt_safety",
+    ("time.stop_at_tip", "zero"): "0 means never stop at the tip",
+    ("watchdog.max_slip_rate", "zero"): "0 means the material's c_l",
+    ("output.energy_every", "zero"): "0 means no energy evaluation",
+    ("mesh.fine_x0", "zero"): "the fine region starts at the struck edge (every preset)",
+    ("friction.params.C", "zero"): "θ2 carries all of T_n (C + D > 0 is the rule)",
+    ("friction.params.D", "zero"): "θ1 carries all of T_n (C + D > 0 is the rule)",
+    ("sw.friction.params.mu_d", "zero"): "slip weakening to no friction after Dc (μs > 0 keeps a strength)",
+    ("rs.friction.params.f0", "zero"): "the regularised rate-and-state friction stays >= 0",
+    ("rss.friction.params.f0", "zero"): "the regularised rate-and-state friction stays >= 0",
+    ("rss.friction.params.f_w", "zero"): "strong rate weakening to no friction (TPV103-like)",
+}
+
+#: laws whose parameters are swept, with the --set items that select them
+LAWS = {
+    "": ("povirk_needleman", []),
+    "sw.": ("slip_weakening", ["--set", "friction.law='slip_weakening'", "--set", "friction.params.Dc=1e-5"]),
+    "rs.": ("rate_state_aging", ["--set", "friction.law='rate_state_aging'"]),
+    "rss.": ("rate_state_slip", ["--set", "friction.law='rate_state_slip'"]),
+}
+
+
+def _wrong(kind) -> str:
+    """A value of the wrong type for a key of ``kind`` (TOML text)."""
+    if kind in ((int, float), int) or kind is float:
+        return "'x'"
+    if kind is bool:
+        return "'yes'"
+    return "1.5"
+
+
+def key_cases() -> list:
+    from fricfem import friction
+    from fricfem.scene import SCHEMA
+
+    cases = []
+    for section, keys in SCHEMA.items():
+        for name, k in keys.items():
+            if name == "base":
+                continue  # not settable with --set: the file cases cover it
+            key = f"{section}.{name}" if section else name
+            numeric = k.kind in ((int, float), int)
+            for v in VARIANTS:
+                text = _wrong(k.kind) if v == "wrong type" else NUM_TEXT[v]
+                if k.kind is int and v in ("negative", "zero", "huge"):
+                    text = {"negative": "-1", "zero": "0", "huge": str(10**30)}[v]
+                cases.append({"category": "key" if numeric else "key (not a number)", "id": f"{key} {v}",
+                              "argv": ["run", "case1", *SHORT, "--set", f"{key}={text}"], "needle": key,
+                              "accept": ACCEPTED.get((key, v))})
+    for prefix, (law, select) in LAWS.items():
+        for p in friction.get_law(law).params:
+            key = f"friction.params.{p.name}"
+            for v in VARIANTS:
+                text = "'x'" if v == "wrong type" else NUM_TEXT[v]
+                cases.append({"category": f"law {law}", "id": f"{prefix}{key} {v}",
+                              "argv": ["run", "case1", *SHORT, *select, "--set", f"{key}={text}"], "needle": key,
+                              "accept": ACCEPTED.get((prefix + key, v))})
+    return cases
+
+
+def rule_cases() -> list:
+    region = "{{x1_min = {0}, x1_max = {1}, params = {{ mu_s = 0.8 }}}}"
+    patch = "{{x1_min = {0}, x1_max = {1}, tau0 = 1e6}}"
+    rows = [
+        ("mu_s < mu_d", ["friction.params.mu_s=0.3"], "friction.params.mu_s"),
+        ("mu_s = 0", ["friction.params.mu_s=0", "friction.params.mu_d=0.001"], "friction.params.mu_s"),
+        ("C = D = 0", ["friction.params.C=0", "friction.params.D=0"], "C + D"),
+        ("overlapping regions", [f"friction.regions=[{region.format(0.01, 0.03)}, {region.format(0.02, 0.04)}]"],
+         "friction.regions[1]"),
+        ("region without a point", [f"friction.regions=[{region.format(0.01, 0.0101)}]"], "friction.regions[0]"),
+        ("region without params", ["friction.regions=[{x1_min = 0.01, x1_max = 0.03}]"], "friction.regions[0]"),
+        ("region mu_s < mu_d", ["friction.regions=[{x1_min = 0.01, x1_max = 0.03, params = { mu_s = 0.1 }}]"],
+         "friction.regions[0].params.mu_s"),
+        ("overlapping patches", [f"interface.patches=[{patch.format(0.01, 0.03)}, {patch.format(0.02, 0.04)}]"],
+         "interface.patches[1]"),
+        ("patch without a point", [f"interface.patches=[{patch.format(0.05, 0.0501)}]"], "interface.patches[0]"),
+        ("patch without tau0", ["interface.patches=[{x1_min = 0.01, x1_max = 0.03}]"], "interface.patches[0]"),
+        *[(f"station name {label}", [f"output.stations={{ {json.dumps(name)} = 0.01 }}"], "station name")
+          for label, name in (("''", ""), ("'/'", "/"), ("'../../x'", "../../x"), ("with NUL", "a\x00b"),
+                              ("with newline", "a\nb"), ("of 10000 characters", "x" * 10000))],
+        ("station names equal ignoring case", ['output.stations={ "G" = 0.01, "g" = 0.02 }'], "output.stations.g"),
+        ("station off the plate", ["output.stations={ far = 0.5 }"], "output.stations.far"),
+        *[(f"scene name {name!r}", [f"name={json.dumps(name)}"], "name = ") for name in ("../../x", "/abs", "a b")],
+        *[(f"field time {label}", [f"output.fields={times}"], f"output.fields[{times.count(',')}]")
+          for label, times in (("0", "[0.0]"), ("after the end", "[3e-6]"), ("twice", "[1e-6, 1e-6]"),
+                               ("under half a step", "[1e-9]"), ("within a step of another", "[1e-6, 1.00001e-6]"))],
+        ("fixed step: field past the last step", ["time.dt=3e-8", "time.end=5.9e-8", "output.fields=[5.9e-8]"],
+         "output.fields[0]"),
+        ("end shorter than one step", ["time.end=1e-8"], "time.end"),
+        ("end shorter than time.dt", ["time.dt=1e-7", "time.end=5e-8"], "time.end"),
+        ("time.dt above the stable step", ["time.dt=1e-6"], "time.dt"),
+        ("stop_at_tip beyond the plate", ["time.stop_at_tip=0.2"], "time.stop_at_tip"),
+        ("t_hold_end < t_rise", ["loading.t_hold_end=1e-6"], "loading.t_hold_end"),
+        ("fine region beyond the plate", ["mesh.fine_x1=0.2"], "mesh.fine_x1"),
+        ("dx larger than the fine region", ["mesh.dx=0.1"], "mesh.dx"),
+        ("field-scale Dc (TPV3 default)", ["friction.law='slip_weakening'"], "friction.params.Dc"),
+        ("field-scale L0", ["friction.params.L0=0.5"], "friction.params.L0"),
+        ("cost: 1e7 steps", ["time.dt=1e-11", "time.end=1e-4"], "--force"),
+        ("cost: plane strain nu -> 0.5", ["time.end=4e-5", "material.plane='strain'", "material.nu=0.4999999999"],
+         "--force"),
+        ("cost: 1e7 quadrilaterals", ["mesh.preset='reference'", "mesh.dx=5e-6", "mesh.dy=5e-6"], "--force"),
+        ("cost: time.dt = 1e-15 (even with --force)", ["time.dt=1e-15"], "even with --force"),
+        ("mesh: 1e10 quadrilaterals", ["mesh.dx=1e-7", "mesh.dy=1e-7"], "mesh:"),
+        ("impact_b a sliver above the fine band", ["mesh.impact_b=0.0020000001"], "--force"),
+    ]
+    cases = [{"category": "rule", "id": i, "argv": ["run", "case1", *SHORT] + [a for s in sets for a in ("--set", s)],
+              "needle": needle, "accept": None} for i, sets, needle in rows]
+    accepted = [
+        ("touching regions", ["friction.regions=[{x1_min = 0.0, x1_max = 0.02, params = { mu_s = 0.8 }}, "
+                              "{x1_min = 0.02, x1_max = 0.04, params = { mu_s = 0.9 }}]"],
+         "regions may touch: no point lies on both"),
+        ("field time at the end", ["output.fields=[1e-6, 2e-6]"],
+         "a time in (0, end] is written at its nearest step (checked: every snapshot is in fields.xdmf)"),
+        ("safe station names", ['output.stations={ "g-1.5_mm" = 0.0015, "G2" = 0.002 }'],
+         "letters, digits, '_', '-', '.'"),
+        ("cohesive zone longer than the plate (warning)",
+         ["friction.law='slip_weakening'", "friction.params.Dc=2e-3"], "a warning, not an error: docs/scenes.md"),
+    ]
+    cases += [{"category": "rule", "id": i, "argv": ["run", "case1", *SHORT] + [a for s in sets for a in ("--set", s)],
+               "needle": "", "accept": why} for i, sets, why in accepted]
+    return cases
+
+
+def cli_cases(tmp: Path) -> list:
+    rows = [
+        ("--set ...=1", ["run", "case1", "--set", "...=1"], "--set"),
+        ("--set .v_imp=1", ["run", "case1", "--set", ".v_imp=1"], "--set"),
+        ("--set loading.=1", ["run", "case1", "--set", "loading.=1"], "--set"),
+        ("--set =1", ["run", "case1", "--set", "=1"], "--set"),
+        ("--set base=case2", ["run", "case1", "--set", "base=case2"], "base cannot be overridden"),
+        ("--set loading.sigma0 (no value)", ["run", "case1", "--set", "loading.sigma0"], "--set"),
+        ("--set loading.sigma0= (empty value)", ["run", "case1", "--set", "loading.sigma0="], "loading.sigma0"),
+        ("--set unknown section", ["run", "case1", "--set", "nosuch.key=1"], "--set"),
+        ("--set into a number", ["run", "case1", "--set", "loading.v_imp.x=1"], "--set"),
+        ("--out ''", ["run", "case1", "--out", ""], "--out"),
+        ("--check --out", ["run", "case1", "--check", "--out", str(tmp / "x")], "--out"),
+        ("--check --overwrite", ["run", "case1", "--check", "--overwrite"], "--overwrite"),
+        ("run ''", ["run", ""], "scene ''"),
+        ("unknown option", ["run", "case1", "--bogus"], "--bogus"),
+        ("mesh --write into a missing folder", ["mesh", "--preset", "coarse", "--write", str(tmp / "no" / "m.msh")],
+         "--write"),
+        ("mesh --write not .msh", ["mesh", "--preset", "coarse", "--write", str(tmp / "m.txt")], "--write"),
+        ("mesh --preset ''", ["mesh", "--preset", ""], "--preset"),
+        ("mesh --preset and --set preset", ["mesh", "--preset", "coarse", "--set", "preset='fine'"], "--preset"),
+        ("mesh --set dx=nan", ["mesh", "--set", "dx=nan"], "mesh.dx"),
+        ("mesh above the budget", ["mesh", "--set", "dx=5e-6", "--set", "dy=5e-6"], "--force"),
+        ("plot --times ''", ["plot", str(tmp), "--times", ""], "--times"),
+        ("plot --times nan", ["plot", str(tmp), "--times", "1,nan"], "--times"),
+        ("plot --out ''", ["plot", str(tmp), "--out", ""], "--out"),
+        ("sweep --sigma0 ''", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "", "--v-imp", "2"],
+         "--sigma0"),
+        ("sweep --v-imp ''", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp", ""],
+         "--v-imp"),
+        ("sweep --sigma0 nan", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "nan", "--v-imp", "2"],
+         "--sigma0"),
+        ("sweep --grid with both axes", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp",
+                                         "2", "--grid", "default"], "--grid"),
+        ("sweep --label ''", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp", "2",
+                              "--label", ""], "--label"),
+        ("sweep --out ''", ["sweep", "case1", "--out", "", "--sigma0", "2", "--v-imp", "2"], "--out"),
+        ("sweep --set of a swept key", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp", "2",
+                                        "--set", "loading.v_imp=3"], "loading.v_imp"),
+        ("sweep above the budget", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp", "2",
+                                    "--set", "time.end=0.5"], "--force"),
+        ("sweep --ranks-per-scene 0", ["sweep", "case1", "--out", str(tmp / "sw"), "--sigma0", "2", "--v-imp",
+                                       "2", "--ranks-per-scene", "0"], "--ranks-per-scene"),
+    ]
+    return [{"category": "cli", "id": i, "argv": argv, "needle": needle, "accept": None} for i, argv, needle in rows]
+
+
+def file_cases(tmp: Path) -> list:
+    """Scene files made in ``tmp``; each case runs ``fricfem run FILE``."""
+    f = tmp / "files"
+    f.mkdir()
+
+    def write(name, data):
+        p = f / name
+        (p.write_bytes if isinstance(data, bytes) else p.write_text)(data)
+        return p
+
+    rows = [
+        ("empty file", write("empty.toml", ""), "no keys"),
+        ("whitespace only", write("ws.toml", "  \n\t \n"), "no keys"),
+        ("comments only", write("comments.toml", "# a\n\n# b\n"), "no keys"),
+        ("not TOML", write("bad.toml", "[loading\nsigma0 = 1\n"), "not valid TOML"),
+        ("non-UTF-8", write("latin1.toml", "name = 'caf\xe9'\n".encode("latin-1")), "latin1.toml"),
+        ("NUL byte", write("nul.toml", b"name = 'a'\x00\n"), "nul.toml"),
+        ("base = 3", write("b3.toml", "base = 3\n"), "base = 3"),
+        ("base missing file", write("bmiss.toml", "base = 'nowhere.toml'\n"), "nowhere.toml"),
+        ("unknown section", write("unk.toml", "base = 'case1'\n[loadings]\nsigma0 = 1e6\n"), "loadings"),
+        ("deep nesting", write("nest.toml", "base = 'case1'\n[output]\nfields = " + "[" * 500 + "]" * 500 + "\n"),
+         "nested"),
+    ]
+    os.mkfifo(f / "fifo_mesh.toml")
+    mesh_rows = [
+        (label, write(f"scene_{i}.toml", f"base = 'case1'\n[mesh]\npreset = '{mesh}'\n"), needle)
+        for i, (label, mesh, needle) in enumerate((
+            ("mesh file with nan", write("m1.toml", "dx = nan"), "mesh.dx"),
+            ("mesh file unknown key", write("m2.toml", "dz = 1"), "dz"),
+            ("mesh file is a FIFO", f / "fifo_mesh.toml", "FIFO")))
+    ]
+    (f / "dir.toml").mkdir()
+    rows.append(("a directory", f / "dir.toml", "is a directory"))
+    os.mkfifo(f / "fifo.toml")
+    rows.append(("a FIFO", f / "fifo.toml", "is a FIFO"))
+    rows.append(("/dev/zero", Path("/dev/zero"), "is a device"))
+    os.symlink(f / "loop.toml", f / "loop.toml")
+    rows.append(("a symlink loop", f / "loop.toml", "symbolic link loop"))
+    os.symlink(f / "nowhere.toml", f / "dangling.toml")
+    rows.append(("a dangling symlink", f / "dangling.toml", "not found"))
+    big = f / "big.toml"
+    with open(big, "wb") as fh:
+        fh.truncate(64 << 20)
+    rows.append(("a 64 MB file (sparse)", big, "at most 4 MB"))
+    write("s0.toml", "base = 'case1'\nname = 's0'\n")
+    for i in range(1, 3001):
+        write(f"s{i}.toml", f"base = 's{i - 1}.toml'\nname = 's{i}'\n")
+    rows.append(("a base chain 3000 files deep", f / "s3000.toml", "deeper than 32"))
+    write("a.toml", "base = 'b.toml'\n")
+    write("b.toml", "base = 'a.toml'\n")
+    rows.append(("a base cycle", f / "a.toml", "inherits from itself"))
+    rows.append(("a missing file", f / "missing.toml", "not found"))
+    rows.append(("a path too long", "/tmp/" + "x" * 5000 + ".toml", "cannot read"))
+    cases = [{"category": "file", "id": i, "argv": ["run", str(p), *SHORT], "needle": needle, "accept": None}
+             for i, p, needle in rows]
+    cases += [{"category": "file", "id": i, "argv": ["run", str(p), *SHORT[2:]], "needle": needle, "accept": None}
+              for i, p, needle in mesh_rows]  # the file's own mesh preset, not the coarse one
+    ok = write("ok.toml", "base = 'case1'\nname = 'from_a_file'\n")
+    cases.append({"category": "file", "id": "a valid file", "argv": ["run", str(ok), *SHORT], "needle": "",
+                  "accept": "a well-formed scene file"})
+    bare = write("bempty.toml", "base = ''\nname = 'defaults'\n")
+    cases.append({"category": "file", "id": "base = '' (the default: no base)", "argv": ["run", str(bare), *SHORT],
+                  "needle": "", "accept": "base = '' is the key's default: a scene of the documented defaults"})
+    return cases
+
+
+def run_case(case: dict, tmp: Path) -> dict:
+    out = tmp / "out" / str(abs(hash(case["id"])))
+    argv = list(case["argv"])
+    if argv[0] == "run" and "--check" not in argv:
+        argv += ["--out", str(out), "--overwrite", "--quiet"] if "--out" not in argv else []
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    for k in list(env):
+        if k.startswith(("OMPI_COMM", "PMIX_", "PMI_")):
+            env.pop(k)
+    t0 = time.perf_counter()
+    try:
+        res = subprocess.run([str(FRICFEM), *argv], capture_output=True, text=True, timeout=TIMEOUT, env=env,
+                             cwd=tmp, errors="replace")
+        status, err = res.returncode, res.stderr
+    except subprocess.TimeoutExpired as exc:
+        status, err = "timeout", (exc.stderr or b"").decode(errors="replace") if isinstance(exc.stderr, bytes) \
+            else (exc.stderr or "")
+    seconds = time.perf_counter() - t0
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.startswith("fricfem") and ": error:" in ln]
+    traceback = any("Traceback" in ln for ln in lines)
+    rundir = out.exists() and any(out.iterdir())
+    outcome, why = "other", ""
+    if status == "timeout":
+        why = "hang (timeout)"
+    elif traceback:
+        why = "traceback"
+    elif status == 2:
+        stray = [ln for ln in lines if not (ln.startswith(("fricfem", "usage:", " ")) or ln in errors)]
+        if case["accept"]:
+            why = "refused a case meant to be accepted"
+        elif len(errors) != 1:
+            why = f"{len(errors)} error lines"
+        elif case["needle"] not in errors[0]:
+            why = f"error does not name {case['needle']!r}"
+        elif rundir:
+            why = "a run directory was made"
+        elif stray:
+            why = f"other output: {stray[0][:80]}"
+        else:
+            outcome = "clear"
+    elif status == 0:
+        fields = [a.partition("=")[2] for a in argv if a.startswith("output.fields=")][-1:]
+        asked = len(json.loads(fields[0])) if fields and argv[0] == "run" and "--check" not in argv else 0
+        written = (out / "fields.xdmf").read_text().count("<Time ") // 3 if asked and (out / "fields.xdmf").exists() \
+            else 0
+        if not case["accept"]:
+            why = "accepted without a reason"
+        elif written < asked:
+            why = f"{written} of {asked} field snapshots written (fields.xdmf)"
+        else:
+            outcome = "accepted"
+    else:
+        why = f"exit {status}"
+    short = [a if len(a) <= 200 else f"{a[:180]}… ({len(a)} characters)" for a in argv]
+    return {"category": case["category"], "id": case["id"], "argv": short, "outcome": outcome, "why": why,
+            "accept": case["accept"], "status": status, "seconds": round(seconds, 3),
+            "error": errors[0] if errors else None,
+            "warnings": [ln for ln in lines if "warning:" in ln][:3],
+            "stderr_tail": lines[-12:] if outcome == "other" else []}
+
+
+def calibrate(tmp: Path) -> list:
+    """The cost estimate against real runs (summary.json): sizes, stable step, steps."""
+    from fricfem import load_scene
+    from fricfem.scene import cost
+
+    rows = []
+    for label, ref, sets in (("coarse", "case1", ["mesh.preset='coarse'"]), ("reference", "case1", []),
+                             ("rupture_band", "rupture_sw", []),
+                             ("coarse, C x 100", "case1",
+                              ["mesh.preset='coarse'", "interface.Cn=3e13", "interface.Cs=1e13"]),
+                             ("coarse, plane strain, nu 0.49", "case1",
+                              ["mesh.preset='coarse'", "material.plane='strain'", "material.nu=0.49"])):
+        scene = load_scene(ref, sets)
+        est = cost.estimate(scene)
+        short = sets + ["time.end=1e-6", "output.fields=[]"]
+        out = tmp / "calib" / label.replace(" ", "_").replace(",", "")
+        cmd = [str(FRICFEM), "run", ref, "--out", str(out), "--overwrite", "--quiet"] + \
+            [a for s in short for a in ("--set", s)]
+        subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
+        s = json.loads((out / "summary.json").read_text())
+        steps = math.floor(scene.t_end / s["dt_s"] + 1e-9)
+        rows.append({
+            "mesh": label, "scene": ref, "sets": sets, "quads_est": est.quads, "dofs_est": est.dofs, "dofs": s["dofs"],
+            "points_est": est.interface_points, "points": s["interface_points"],
+            "dt_crit_bracket_s": list(est.dt_crit), "dt_crit_s": s["dt_crit_s"],
+            "inside": est.dt_crit[0] <= s["dt_crit_s"] <= est.dt_crit[1],
+            "steps_est": est.steps, "steps": steps, "steps_ratio": est.steps / steps,
+        })
+    return rows
+
+
+def report(results: list, calib: list, wall: float) -> str:
+    cats = sorted({r["category"] for r in results})
+    n = len(results)
+    count = {o: sum(r["outcome"] == o for r in results) for o in ("clear", "accepted", "other")}
+    refused = [r["seconds"] for r in results if r["outcome"] == "clear"]
+    lines = [
+        "# Bad-input corpus (`benchmarks/bad_input.py`)",
+        "",
+        f"{n} cases, each `fricfem` in a subprocess (one rank, timeout {TIMEOUT:g} s), serially; "
+        f"wall {wall / 60:.1f} min. Accepted cases run for real on the coarse mesh to 2 µs.",
+        "",
+        f"**Totals: {count['clear']} clear errors, {count['accepted']} accepted on purpose, {count['other']} other** "
+        f"({100 * (count['clear'] + count['accepted']) / n:.1f} % clear or deliberately accepted; "
+        f"{sum(r['why'] == 'traceback' for r in results)} tracebacks, "
+        f"{sum(r['status'] == 'timeout' for r in results)} hangs).",
+        "",
+        f"Time to each rejection (process start to exit, Python start-up and imports included): median "
+        f"{statistics.median(refused):.2f} s, max {max(refused):.2f} s, "
+        f"{sum(t < 2.0 for t in refused)}/{len(refused)} under 2 s; no run directory was made for any of them "
+        f"(validation runs before the mesh).",
+        "",
+        "| category | cases | clear | accepted | other |",
+        "|---|---|---|---|---|",
+    ]
+    for c in cats:
+        rs = [r for r in results if r["category"] == c]
+        lines.append(f"| {c} | {len(rs)} | {sum(r['outcome'] == 'clear' for r in rs)} | "
+                     f"{sum(r['outcome'] == 'accepted' for r in rs)} | {sum(r['outcome'] == 'other' for r in rs)} |")
+    lines += ["", "## Accepted on purpose", "", "| case | why |", "|---|---|"]
+    lines += [f"| {r['id']} | {r['accept']} |" for r in results if r["outcome"] == "accepted"]
+    others = [r for r in results if r["outcome"] == "other"]
+    lines += ["", "## Other", ""]
+    lines += [f"- {r['id']}: {r['why']} {r['stderr_tail'][-1:] if r['stderr_tail'] else ''}"
+              for r in others] or ["none"]
+    lines += ["", "## A sample of the errors", ""]
+    seen = set()
+    for r in results:
+        if r["outcome"] == "clear" and r["category"] not in seen:
+            seen.add(r["category"])
+            lines.append(f"- `{r['id']}`: `{r['error'][:220]}`")
+    lines += ["", "## The cost estimate against real runs", "",
+              "Each mesh run to 1 µs; its `summary.json` gives the built sizes and the stable step "
+              "2/√λmax; the estimate comes from the scene alone (`fricfem run --check`). Steps: to the "
+              "scene's own end time.", "",
+              "| mesh | dofs est / built | points est / built | stable step bracket (ns) | built (ns) | inside | "
+              "steps est / real |", "|---|---|---|---|---|---|---|"]
+    for c in calib:
+        lo, hi = (x * 1e9 for x in c["dt_crit_bracket_s"])
+        lines.append(f"| {c['mesh']} | {c['dofs_est']:,.0f} / {c['dofs']:,} | {c['points_est']:,.0f} / "
+                     f"{c['points']:,} | {lo:.2f} … {hi:.2f} | {c['dt_crit_s'] * 1e9:.2f} | "
+                     f"{'yes' if c['inside'] else 'NO'} | {c['steps_est']:,.0f} / {c['steps']:,} "
+                     f"({c['steps_ratio']:.2f}×) |")
+    return "\n".join(lines) + "\n"
+
+
+def _write_json(path: Path, doc: dict) -> None:
+    """One case per line (the corpus is long); the common --set items of SHORT left out of each."""
+    for r in doc["cases"]:
+        r["argv"] = [a for i, a in enumerate(r["argv"]) if not (a in SHORT and (a == "--set" and i + 1 < len(
+            r["argv"]) and r["argv"][i + 1] in SHORT or a != "--set"))]
+    lines = [json.dumps(r, ensure_ascii=False) for r in doc["cases"]]
+    head = {k: v for k, v in doc.items() if k != "cases"}
+    path.write_text(json.dumps(head, indent=1)[:-2] + ',\n "cases": [\n' + ",\n".join(lines) + "\n]}\n")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", help="comma-separated categories prefixes (key, law, rule, cli, file); not written")
+    ap.add_argument("--no-calibration", action="store_true")
+    args = ap.parse_args(argv)
+    tmp = Path(tempfile.mkdtemp(prefix="fricfem-bad-input-"))
+    t0 = time.perf_counter()
+    try:
+        cases = key_cases() + rule_cases() + cli_cases(tmp) + file_cases(tmp)
+        if args.only:
+            cases = [c for c in cases if any(c["category"].startswith(p) for p in args.only.split(","))]
+        results = []
+        for i, case in enumerate(cases):
+            r = run_case(case, tmp)
+            results.append(r)
+            mark = {"clear": ".", "accepted": "a"}.get(r["outcome"], "X")
+            print(f"{i + 1:4d}/{len(cases)} {mark} {r['seconds']:5.2f} s  {r['id'][:70]}"
+                  + (f"  <- {r['why']}" if mark == "X" else ""), flush=True)
+        calib = [] if (args.only or args.no_calibration) else calibrate(tmp)
+        wall = time.perf_counter() - t0
+        text = report(results, calib, wall)
+        print(text)
+        if not args.only:
+            RESULTS.mkdir(parents=True, exist_ok=True)
+            (RESULTS / "bad_input.md").write_text(text)
+            _write_json(RESULTS / "bad_input.json", {"wall_s": wall, "short": SHORT, "cases": results,
+                                                     "calibration": calib})
+        return 0 if all(r["outcome"] != "other" for r in results) else 1
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

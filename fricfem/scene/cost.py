@@ -1,0 +1,247 @@
+"""What a scene will cost, estimated from the scene alone (no mesh built), and
+the budget a run must fit unless ``--force`` is given.
+
+Sizes.  The mesh is a tensor grid per plate (:mod:`fricfem.model.grid`): its
+node lines along x1 and x2 come from :func:`~fricfem.model.grid.axis_nodes`,
+which is cheap (1-D arrays), so the counts below are exact: ``nx × ny``
+quadrilaterals per plate, ``(nx+1)(ny+1) + nx·ny`` nodes (corners and centres),
+2 dofs per node, 4 interface Gauss points per segment.  Before calling it the
+counts are bounded in closed form (:func:`axis_count`), so an absurd cell
+size is refused without allocating anything.
+
+The step.  The run's step is ``dt_safety · 2/√λmax`` of M⁻¹(K + K_int)
+(:mod:`fricfem.model.assembly`).  λmax is bracketed without assembling
+anything:
+
+* above, by Weyl's inequality and the element eigenvalue theorem (the global
+  λmax of lumped-mass elements is at most the largest element λmax):
+  ``λmax <= λ_elem + λ_spring``, where ``λ_elem`` is the largest eigenvalue of
+  one crossed-triangle element pair of the smallest cell (hx = smallest x1
+  spacing, hy = smallest x2 spacing of the grid: every pair is a cell of the
+  tensor grid, and shrinking either side only raises an element's λmax) with
+  its row-sum lumped mass ρA/3 per node, and ``λ_spring = 6 max(C_n, C_s) /
+  (ρ hy1)`` bounds the interface springs by Gershgorin (a node pair on the
+  interface: stiffness 2 C ∫N_i ds against the lumped mass ρ ∫N_i ds · hy1/3,
+  hy1 the height of the first cell row);
+* below, by Rayleigh quotients of single dofs: the centre node of the smallest
+  cell (K_ii / M_ii) and an interface node with its spring.
+
+So ``dt_low = dt_safety · 2/√(λ_elem + λ_spring)`` and ``dt_high = dt_safety ·
+2/√λ_low`` bracket the step (before its rounding down to 3 digits); the
+number of steps is taken from ``dt_low`` (conservative: never fewer than the
+run will take), "at least one step" from ``dt_high``.  A fixed ``time.dt``
+is used as given.  Checked against built models (tests/test_hostile_input.py,
+docs/scenes.md): the built λmax lies inside the bracket.
+
+Budget (:data:`BUDGET`): a run above any of these is refused unless
+``--force``; above :data:`HARD` it is refused always.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+#: Refused unless ``--force``: quadrilaterals, steps, dofs × steps, interface output bytes.
+BUDGET = {"quads": 5e6, "steps": 2e6, "dof_steps": 2e11, "output_bytes": 2e10}
+#: Refused always (rank 0 builds the whole grid in memory; ~1 kB per quadrilateral
+#: through numpy and dolfinx): quadrilaterals, steps.
+HARD = {"quads": 5e7, "steps": 1e9}
+
+#: Above these (but within the budget) the command says how large the run is, one line.
+NOTICE = {"quads": 1e6, "dof_steps": 1e10}
+#: dof updates per second and rank assumed for the time a notice states (the fine mesh
+#: runs at ~1e8 per rank: README, Speed).
+RATE = 1e8
+
+#: The interface quantities stored per point and snapshot (interface.h5), an upper bound.
+_QUANTITIES = 12
+
+
+def axis_count(length, fine, h, ratio, hmax) -> float:
+    """Upper bound on the number of cells :func:`fricfem.model.grid.axis_nodes`
+    makes on ``[0, length]`` (closed form: no arrays), breaks aside (+2 each).
+
+    Inside ``fine = (a, b)`` the spacing is ``h``; at a distance ``d`` outside
+    it ``s(d) = min(hmax, h + (ratio − 1) d)``, so ``∫ dd / s`` is a logarithm
+    up to the distance where ``s`` reaches ``hmax`` and linear beyond.
+    """
+    a, b = fine
+
+    def outside(dist):
+        if dist <= 0:
+            return 0.0
+        if ratio <= 1.0 or hmax <= h:
+            return dist / min(h, hmax)
+        d_cap = (hmax - h) / (ratio - 1.0)
+        n = math.log1p((ratio - 1.0) * min(dist, d_cap) / h) / (ratio - 1.0)
+        return n + max(0.0, dist - d_cap) / hmax
+
+    return (b - a) / h + outside(a) + outside(length - b) + 4.0
+
+
+def _triangle_k(p, mat) -> np.ndarray:
+    """6×6 stiffness of a linear triangle with corners ``p`` [3, 2] (plane, per unit thickness)."""
+    (x1, y1), (x2, y2), (x3, y3) = p
+    area = 0.5 * abs((x2 - x1) * (y3 - y1) - (x3 - x1) * (y2 - y1))
+    b = np.array([y2 - y3, y3 - y1, y1 - y2]) / (2 * area)
+    c = np.array([x3 - x2, x1 - x3, x2 - x1]) / (2 * area)
+    B = np.zeros((3, 6))
+    B[0, 0::2] = b
+    B[1, 1::2] = c
+    B[2, 0::2] = c
+    B[2, 1::2] = b
+    lam, mu = mat.lmbda, mat.mu
+    D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+    return area * B.T @ D @ B, area
+
+
+def _cell(hx, hy, mat):
+    """Crossed-triangle cell hx × hy: (largest element λ with lumped mass, K of the
+    5-node cell [10, 10], lumped mass per node [5]); nodes: 4 corners then the centre."""
+    pts = np.array([[0.0, 0.0], [hx, 0.0], [hx, hy], [0.0, hy], [hx / 2, hy / 2]])
+    K = np.zeros((10, 10))
+    m = np.zeros(5)
+    lam_e = 0.0
+    for tri in ((0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)):
+        ke, area = _triangle_k(pts[list(tri)], mat)
+        me = mat.rho * area / 3.0
+        lam_e = max(lam_e, float(np.linalg.eigvalsh(ke).max()) / me)
+        dofs = np.ravel([[2 * n, 2 * n + 1] for n in tri])
+        K[np.ix_(dofs, dofs)] += ke
+        m[list(tri)] += me
+    return lam_e, K, m
+
+
+class Estimate(NamedTuple):
+    """The size and cost of a scene's run, from the scene alone."""
+
+    quads: float  # quadrilaterals, both plates
+    nodes: float
+    dofs: float
+    interface_points: float
+    h_min: tuple  # (smallest x1 spacing, smallest x2 spacing) [m]
+    dt_crit: tuple  # (low, high) [s]: the stable step 2/√λmax lies between them
+    dt_low: float  # [s] the run's step is at least this (conservative)
+    dt_high: float  # [s] and at most this
+    dt_fixed: bool  # time.dt given: dt_low = dt_high = time.dt
+    steps: float  # from dt_low: never fewer than the run takes
+    dof_steps: float
+    output_bytes: float  # interface.h5, about
+
+    def over(self, limits: dict) -> list:
+        """The (what, estimate, limit) triples above ``limits``."""
+        return [(k, getattr(self, k), v) for k, v in limits.items() if getattr(self, k) > v]
+
+    def text(self) -> str:
+        dt = (f"dt = {self.dt_low:.3g} s (time.dt)" if self.dt_fixed
+              else f"dt ≈ {self.dt_low:.3g} … {self.dt_high:.3g} s")
+        return (f"{self.quads:.3g} quadrilaterals, {self.dofs:.3g} dofs, {self.interface_points:.3g} interface "
+                f"points, smallest cell {self.h_min[0]:.3g} × {self.h_min[1]:.3g} m; {dt}, about "
+                f"{self.steps:.3g} steps; {self.dof_steps:.3g} dof·steps; interface output about "
+                f"{self.output_bytes / 1e6:.3g} MB")
+
+    def as_dict(self) -> dict:
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self._asdict().items()}
+
+
+def size_bound(spec) -> float:
+    """Upper bound on the quadrilaterals of a mesh spec, closed form (no arrays)."""
+    nx = axis_count(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size)
+    ny = axis_count(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size) + 2
+    return 2.0 * nx * ny
+
+
+def axes(spec) -> tuple:
+    """The grid's node lines (x1 nodes, x2 nodes of one plate from the interface), exact."""
+    from ..model.grid import axis_nodes
+
+    xs = axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
+    ys = axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size, (spec.impact_b,))
+    return xs, ys
+
+
+def gauss_x1(xs) -> np.ndarray:
+    """x1 of every interface Gauss point (4 per segment between consecutive x1 nodes)."""
+    xi = np.polynomial.legendre.leggauss(4)[0]
+    mid, half = 0.5 * (xs[1:] + xs[:-1]), 0.5 * (xs[1:] - xs[:-1])
+    return (mid[:, None] + half[:, None] * xi[None, :]).ravel()
+
+
+def step_bracket(mat, hx: float, hy: float, hy1: float, Cn: float, Cs: float) -> tuple:
+    """(λ_low, λ_high) bracketing λmax of M⁻¹(K + K_int) (module docstring)."""
+    lam_e, K, m = _cell(hx, hy, mat)
+    c = max(Cn, Cs)
+    lam_spring = 6.0 * c / (mat.rho * hy1)
+    high = lam_e + lam_spring
+    # Rayleigh quotients of single dofs: the centre node; an interface corner node
+    # (two cells hx × hy1 side by side share it: its bulk diagonal from both, its
+    # mass ρ hx hy1 / 3, its spring C ∫N_i² ds = C (2 hx / 3)).
+    centre = max(K[8, 8], K[9, 9]) / m[4]
+    _, K1, m1 = _cell(hx, hy1, mat)
+    # corner 0 of one cell + corner 1 of its neighbour; x1 dof with C_s, x2 dof with C_n
+    kx, ky = K1[0, 0] + K1[2, 2], K1[1, 1] + K1[3, 3]
+    corner = max(kx + Cs * 2.0 * hx / 3.0, ky + Cn * 2.0 * hx / 3.0) / (m1[0] + m1[1])
+    return max(centre, corner), high
+
+
+def estimate(scene) -> Estimate:
+    """The size, step and cost of a validated scene's run (no mesh built)."""
+    spec = scene.mesh
+    xs, ys = axes(spec)
+    nx, ny = len(xs) - 1, len(ys) - 1
+    quads = 2.0 * nx * ny
+    nodes = 2.0 * ((nx + 1) * (ny + 1) + nx * ny)
+    hx, hy = float(np.diff(xs).min()), float(np.diff(ys).min())
+    with np.errstate(all="ignore"):
+        try:
+            springs = (0.0, 0.0) if scene.interface_kind == "rigid" else (scene.Cn, scene.Cs)  # rigid: none
+            lam_low, lam_high = step_bracket(scene.material, hx, hy, float(ys[1] - ys[0]), *springs)
+        except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
+            lam_low = lam_high = math.inf
+    crit = tuple(2.0 / math.sqrt(lam) if 0 < lam < math.inf else 0.0 for lam in (lam_high, lam_low))
+    if scene.dt:
+        dt_low = dt_high = scene.dt
+    else:
+        dt_low, dt_high = (scene.dt_safety * c for c in crit)
+    ratio = scene.t_end / dt_low if dt_low > 0 else math.inf
+    steps = float(math.floor(ratio + 1e-9)) if math.isfinite(ratio) else math.inf
+    points = nx + 1.0 if scene.interface_kind == "rigid" else 4.0 * nx  # node pairs or Gauss points
+    snaps = min(steps, scene.t_end / scene.output["interface_every"]) + 1
+    stations = len(scene.output["stations"])
+    out = 8.0 * (snaps * points * _QUANTITIES + (steps + 1) * stations * _QUANTITIES)
+    return Estimate(quads, nodes, 2 * nodes, points, (hx, hy), crit, dt_low, dt_high, bool(scene.dt), steps,
+                    2 * nodes * steps, out)
+
+
+def notice(est: Estimate, ranks: int = 1) -> str | None:
+    """One line when a run within the budget is still large (:data:`NOTICE`), else None."""
+    if not est.over(NOTICE):
+        return None
+    minutes = est.dof_steps / (RATE * max(ranks, 1)) / 60.0
+    return (f"a large run: {est.text()}; roughly {minutes:.2g} min of time loop on {ranks} rank(s) "
+            f"(at {RATE:.0e} dof updates per second per rank)")
+
+
+_WHAT = {"quads": "quadrilaterals", "steps": "steps", "dof_steps": "dof·steps", "output_bytes": "bytes of output"}
+
+
+def check(scene, force: bool = False) -> Estimate:
+    """The estimate, or a SceneError when it exceeds :data:`HARD`, or
+    :data:`BUDGET` without ``force``; the message states both."""
+    from .schema import SceneError
+
+    est = estimate(scene)
+    hard = est.over(HARD)
+    if hard:
+        what, value, limit = hard[0]
+        raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated; at most {limit:.3g} are "
+                         f"possible (even with --force). Estimate: {est.text()}")
+    over = est.over(BUDGET)
+    if over and not force:
+        what, value, limit = over[0]
+        raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated, above the budget of "
+                         f"{limit:.3g}; pass --force to run it anyway. Estimate: {est.text()}")
+    return est
