@@ -12,4 +12,5 @@ $MPI $PY benchmarks/dt_convergence.py
 $PY benchmarks/end_to_end.py
 $MPI $PY benchmarks/skipping.py
 $MPI $PY benchmarks/stability.py
+$PY benchmarks/spike_theory.py                       # serial
 $MPI $PY benchmarks/work_precision.py --quick

@@ -56,6 +56,7 @@ from mpi4py import MPI
 
 from fricfem import batch, friction, load_scene
 from fricfem.analysis.convergence import front_at, record
+from fricfem.output.rundir import read_summary
 from fricfem.friction import povirk_needleman as pn
 
 logging.getLogger().setLevel(logging.WARNING)
@@ -130,7 +131,7 @@ for label in a.cases:
         if comm.rank == 0:
             law = friction.get_law(scene.law)
             params = friction.pack(law, scene.params)
-            summ = json.loads((d / "summary.json").read_text())
+            summ = read_summary(d)  # summary.json with evidence.json (the tip's arrays)
             rec["t_snap"], rec["ratio"], rec["station_t"], rec["station_Ts"] = strength_ratio(d, law, params)
             ini = summ.get("initiation")
             rec["t_init"] = ini["time_s"] if ini else None

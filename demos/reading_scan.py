@@ -5,6 +5,10 @@
 # C_n, C_s; one reading applies to every scene, nothing is fitted per case)
 # and ranks them by the number of statements met.  Results (finished runs are
 # reused) go to `--out`; the ranking to `reading_scan.json` / `.md` there.
+# Each reading also lists the scenes whose slip rate spiked above c_l
+# (summary.json `slip_rate_spike`: reported, not a stop; docs/model.md, "The
+# watchdog").  `--compare DIR` (a directory of earlier per-reading tables,
+# `<reading>.md`) lists every statement whose value or verdict changed.
 #
 # Run: `mpirun -n 2 .venv/bin/python demos/reading_scan.py --out runs/readings`
 
@@ -19,12 +23,41 @@ import reproduction as rp  # the statements and readings (demos/reproduction.py)
 
 from fricfem import load_scene
 
+
+def spikes(runs: dict) -> dict:
+    """{scene: {peak_m_s, x1_mm, time_us}} of the runs whose slip rate passed c_l."""
+    out = {}
+    for name, d in runs.items():
+        s = json.loads((Path(d) / "summary.json").read_text()).get("slip_rate_spike") or {}
+        if s.get("above_threshold"):
+            out[name] = {"peak_m_s": s["peak_m_s"], "x1_mm": s["x1_m"] * 1e3, "time_us": s["time_s"] * 1e6}
+    return out
+
+
+def table_rows(md: str) -> dict:
+    """{(group, statement): (fricfem's value, verdict)} of a per-reading statements table."""
+    rows = {}
+    for line in md.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 5 and cells[3] in ("✓", "✗"):
+            rows[(cells[0], cells[1])] = (cells[2], cells[3])
+    return rows
+
+
+def changes(old_md: str, new_md: str) -> list:
+    """The statements whose value or verdict differ between two tables of one reading."""
+    old, new = table_rows(old_md), table_rows(new_md)
+    return [{"group": g, "statement": st, "before": old[(g, st)], "now": new[(g, st)]}
+            for (g, st) in new if (g, st) in old and old[(g, st)] != new[(g, st)]]
+
+
 ap = argparse.ArgumentParser()
 ap.add_argument("--directions", default="push,pull")
 ap.add_argument("--v-scales", default="1,2.5,5,7.5")
 ap.add_argument("--stiffness-scales", default="1")
 ap.add_argument("--preset", default="reference")
 ap.add_argument("--out", default="runs/readings")
+ap.add_argument("--compare", type=Path, help="directory of earlier per-reading tables <reading>.md")
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
 speeds = load_scene("case1").material.speeds()
@@ -40,15 +73,33 @@ for d, v, k in itertools.product(a.directions.split(","), map(float, a.v_scales.
         (out / "statements.md").write_text(rp.markdown(rows, reading))
         met = sum(r["ok"] for r in rows)
         ranking.append({"reading": reading._asdict(), "met": met, "total": len(rows),
-                        "met_statements": [f"{r['group']}: {r['statement']}" for r in rows if r["ok"]]})
-        print(f"{d:5s} V×{v:<4g} C×{k:<4g} {met:3d} / {len(rows)}", flush=True)
+                        "met_statements": [f"{r['group']}: {r['statement']}" for r in rows if r["ok"]],
+                        "spikes_above_c_l": spikes(runs)})
+        before = a.compare / f"{out.name}.md" if a.compare else None
+        if before is not None and before.is_file():
+            ranking[-1]["changed"] = changes(before.read_text(), rp.markdown(rows, reading))
+            ranking[-1]["met_before"] = sum(v == "✓" for _, v in table_rows(before.read_text()).values())
+        print(f"{d:5s} V×{v:<4g} C×{k:<4g} {met:3d} / {len(rows)}; slip rate above c_l in: "
+              f"{', '.join(ranking[-1]['spikes_above_c_l']) or 'none'}", flush=True)
 if comm.rank == 0:
     ranking.sort(key=lambda r: -r["met"])
     Path(a.out, "reading_scan.json").write_text(json.dumps(ranking, indent=2))
-    lines = ["| rank | direction | V_imp × | C_n, C_s × | statements met |", "|---|---|---|---|---|"]
+    lines = ["| rank | direction | V_imp × | C_n, C_s × | statements met | slip rate above c_l (reported) |",
+             "|---|---|---|---|---|---|"]
     for i, r in enumerate(ranking, 1):
         rd = r["reading"]
         lines.append(f"| {i} | {rd['direction']} | {rd['v_scale']:g} | {rd['stiffness_scale']:g} | "
-                     f"{r['met']} / {r['total']} |")
+                     f"{r['met']} / {r['total']} | {', '.join(r['spikes_above_c_l']) or '–'} |")
+    changed = [r for r in ranking if r.get("changed")]
+    if a.compare:
+        lines += ["", f"Statements whose value or verdict changed against the tables in `{a.compare}`: "
+                  f"{sum(len(r['changed']) for r in changed)} in {len(changed)} of {len(ranking)} readings.", "",
+                  "| reading | met then → now | statement | then | now |", "|---|---|---|---|---|"]
+        for r in changed:
+            rd = r["reading"]
+            for c in r["changed"]:
+                lines.append(f"| {rd['direction']} V×{rd['v_scale']:g} C×{rd['stiffness_scale']:g} | "
+                             f"{r['met_before']} → {r['met']} | {c['group']}: {c['statement']} | "
+                             f"{c['before'][0]} {c['before'][1]} | {c['now'][0]} {c['now'][1]} |")
     Path(a.out, "reading_scan.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -180,12 +180,12 @@ def statements(runs: dict, speeds) -> list:
             "lineB_s6": "crack-like", "lineB_s10": "crack-like", "lineB_s16": "pulse-train", "lineB_s30": "pulse"}
     for name, label in want.items():
         add(name.split("_")[0], f"{name}: {label}", mode(R[name]), mode(R[name]) == label)
-    st = R["lineA_v2"].station.get("x16.1mm", {})
+    st = R["lineA_v2"].stations.get("x16.1mm", {})
     mu = st.get("mu_app", np.zeros(1))
     late = float(np.abs(mu[-len(mu) // 4:]).mean()) if len(mu) > 4 else float("nan")
     add("lineA", "V_imp = 2 m/s: steady μ_app ≈ 0.598 at x1 = 16.1 mm (±0.01)", f"{late:.3f}",
         close(late, 0.598, abs_=0.01))
-    pk = float(R["lineB_s30"].rate.max())
+    pk = float(R["lineB_s30"].slip_rate.max())
     add("lineB", "Σ0 = 30 MPa: narrow pulses with peak ≈ 820 m/s (±25 %)", f"{pk:.0f} m/s", close(pk, 820, 0.25))
     return out
 

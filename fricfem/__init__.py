@@ -6,10 +6,13 @@ Needleman & Rosakis, *Frictional sliding modes along an interface between
 identical elastic plates subject to shear impact loading*, J. Mech. Phys.
 Solids 53 (2005) 884–922.
 
-The Python API (docs/api.md):
+The Python API (docs/api.md; a tour: demos/api_tour.py):
 
-    scene = fricfem.load_scene("case3", ["loading.v_imp=40"])
-    summary = fricfem.run(scene, "runs/c3v40")
+    scene = fricfem.load_scene("case3", ["loading.v_imp=40"])   # validated, before any heavy work
+    summary = fricfem.run(scene, "runs/c3v40")                   # the run directory; its summary
+    run = fricfem.open_run("runs/c3v40")                         # arrays with units
+    run.slip_rate, run.t, run.x1, run.units["slip_rate"], run.gauges
+    fricfem.register_law(my_law)                                 # a friction law of your own
 
 Importing fricfem loads nothing heavy; each function imports what it needs.
 """
@@ -46,7 +49,23 @@ def run(scene, out=None, *, comm=None, overwrite=False, quiet=True, on_step=None
 def open_run(rundir):
     """A run directory's results as arrays with units (:class:`fricfem.output.rundir.Run`):
     ``t``, ``x1``, every interface quantity (``slip_rate``, ``shear_traction``, ...),
-    ``stations``, ``energy``, ``summary``, ``units``."""
+    ``stations``, ``energy``, ``summary``, ``units``; ``gauges``: the point histories
+    inside the plates (:class:`fricfem.output.gauges.GaugeFile`, None if the scene
+    had no ``output.gauges``).  A run still going or killed reads as far as it was
+    flushed."""
+    from .output.gauges import open_gauges
     from .output.rundir import open_run as _open
 
-    return _open(rundir)
+    run = _open(rundir)
+    run.gauges = open_gauges(rundir)
+    return run
+
+
+def register_law(law, *, replace=False):
+    """Register a friction law of your own (a :class:`fricfem.friction.Law` on the
+    contract of :mod:`fricfem.friction.base`) so that scenes can name it in
+    ``friction.law``; its functions are compiled and checked once here
+    (:func:`fricfem.friction.register_law`; docs/api.md, "A law of your own")."""
+    from .friction import register_law as _register
+
+    return _register(law, replace=replace)

@@ -17,7 +17,16 @@ Under MPI the communicator is split into groups of ``ranks_per_job`` ranks;
 the jobs are sorted by expected cost, heaviest first, and dealt round-robin to
 the groups; each group runs its jobs one after another on its own
 communicator.  ``ranks_per_job = 1``: one serial run per rank (a sweep scales
-by points); ``= comm.size``: every job on all ranks (the paper demos).
+by points); ``= comm.size``: every job on all ranks (the paper demos).  A
+group keeps the models it built (:class:`fricfem.model.reuse.ModelCache`): a
+job on the same mesh and interface as an earlier one of its group reuses the
+mesh, K, the mass, the interface geometry, λmax and the step's rows, with the
+same results bit for bit.  :class:`Pool` keeps the groups and their models
+for several batches (the rounds of an adaptive map):
+
+    with Pool(comm, ranks_per_job=1) as pool:
+        first = pool.run(jobs)
+        second = pool.run(more_jobs)                      # same groups, same models
 """
 
 from __future__ import annotations
@@ -98,11 +107,14 @@ def deal(jobs, groups: int) -> list:
     return [order[g::groups] for g in range(groups)]
 
 
-def run_scene_job(job: Job, comm) -> dict:
-    """The default work of a job: run its scene (overwriting the directory); the summary."""
+def run_scene_job(job: Job, comm, models=None) -> dict:
+    """The default work of a job: run its scene (overwriting the directory); the summary.
+    ``models``: a :class:`fricfem.model.reuse.ModelCache` to take the model from."""
     from .runner import run_scene
 
-    return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True)
+    if models is None:
+        return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True)
+    return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True, build=models.build)
 
 
 def _finished(record: dict) -> bool:
@@ -155,30 +167,68 @@ def _run_group(jobs, comm, work, log, finished) -> list:
     return done
 
 
-def run_jobs(jobs, comm=MPI.COMM_WORLD, *, ranks_per_job: int = 1, work: Callable = run_scene_job,
+class Pool:
+    """Groups of ``ranks_per_job`` ranks of ``comm``, kept for several batches
+    (the rounds of an adaptive map): the split communicator and, per group, a
+    :class:`fricfem.model.reuse.ModelCache`, so that scenes sharing a mesh and
+    interface reuse one model across jobs and batches.  Collective to make and
+    to :meth:`close` (or use it as a context manager).
+    """
+
+    def __init__(self, comm=MPI.COMM_WORLD, ranks_per_job: int = 1, reuse: bool = True):
+        k = int(ranks_per_job)
+        if k < 1 or comm.size % k:
+            raise ValueError(f"--ranks-per-scene {ranks_per_job}: must divide the number of ranks ({comm.size})")
+        from .model.reuse import ModelCache
+
+        self.comm, self.k = comm, k
+        self.groups = comm.size // k
+        self.color = comm.rank // k
+        self.sub = comm.Split(self.color, comm.rank) if self.groups > 1 else comm
+        self.models = ModelCache() if reuse else None
+
+    def run(self, jobs, *, work: Callable | None = None, log: Callable | None = None,
+            finished: Callable = _finished) -> list | None:
+        """Run ``jobs`` (collective on the pool's ``comm``): see :func:`run_jobs`.
+        ``work`` None: run each job's scene, with the group's model cache."""
+        if work is None:
+            models = self.models
+            work = (lambda job, c: run_scene_job(job, c, models)) if models is not None else run_scene_job
+        mine = deal(jobs, self.groups)[self.color]
+        done = _run_group(mine, self.sub, work, log, finished)
+        leaders = self.comm.gather(done if (self.comm.rank % self.k == 0) else [], root=0)
+        if self.comm.rank != 0:
+            return None
+        by_key = {r.key: r for part in leaders for r in part}
+        return [by_key[j.key] for j in jobs if j.key in by_key]
+
+    def close(self) -> None:
+        """Drop the cached models and free the sub-communicator (collective)."""
+        if self.models is not None:
+            self.models.clear()
+        _free(self.sub)
+        if self.sub is not self.comm:
+            self.sub.Free()
+            self.sub = self.comm
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def run_jobs(jobs, comm=MPI.COMM_WORLD, *, ranks_per_job: int = 1, work: Callable | None = None,
              log: Callable | None = None, finished: Callable = _finished) -> list | None:
     """Run ``jobs`` on groups of ``ranks_per_job`` ranks of ``comm`` (collective).
 
     ``work(job, group_comm) -> record`` (a JSON-able dict) does one job
-    (default: run its scene; the record is the summary); ``finished(record)``
-    says whether the job is settled, so that ``job.json`` is written and the
-    job reused next time.  Returns the :class:`Result` of every job on rank 0
-    of ``comm`` (None elsewhere), in the order of ``jobs``.
+    (default: run its scene, reusing the model of an earlier job of the group
+    on the same mesh and interface (:mod:`fricfem.model.reuse`); the record
+    is the summary); ``finished(record)`` says whether the job is settled, so
+    that ``job.json`` is written and the job reused next time.  Returns the
+    :class:`Result` of every job on rank 0 of ``comm`` (None elsewhere), in
+    the order of ``jobs``.
     """
-    k = int(ranks_per_job)
-    if k < 1 or comm.size % k:
-        raise ValueError(f"--ranks-per-scene {ranks_per_job}: must divide the number of ranks ({comm.size})")
-    groups = comm.size // k
-    color = comm.rank // k
-    sub = comm.Split(color, comm.rank) if groups > 1 else comm
-    try:
-        mine = deal(jobs, groups)[color]
-        done = _run_group(mine, sub, work, log, finished)
-    finally:
-        if sub is not comm:
-            sub.Free()
-    leaders = comm.gather(done if (comm.rank % k == 0) else [], root=0)
-    if comm.rank != 0:
-        return None
-    by_key = {r.key: r for part in leaders for r in part}
-    return [by_key[j.key] for j in jobs if j.key in by_key]
+    with Pool(comm, ranks_per_job) as pool:
+        return pool.run(jobs, work=work, log=log, finished=finished)

@@ -279,8 +279,11 @@ def main(argv=None) -> int:
         return int(stop.code or 0) if not isinstance(stop.code, str) else 2
     try:
         return args.func(args)
-    except ValueError as err:  # SceneError and every other bad-input error
+    except ValueError as err:  # SceneError, RunDirError and every other bad-input error
         return _error(str(err))
+    except OSError as err:  # the file system failed under a run (no space, ...): one line naming the path
+        _error(f"{err.filename}: {err.strerror}" if err.filename and err.strerror else f"{type(err).__name__}: {err}")
+        return 1
     except BrokenPipeError:  # `fricfem ... | head`: the reader left
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

@@ -5,12 +5,21 @@
           ─► diagnostics (fricfem.analysis) ─► summary.json
 
 The run directory's format: :mod:`fricfem.output.quantities`.  Files are
-flushed as the run goes and ``summary.json`` says ``"complete": false`` until
-the run ends.
+flushed as the run goes (every :data:`fricfem.monitor.FLUSH_ROWS` interface rows and every
+``output.flush_every`` seconds), each so that a kill at any instant leaves it
+readable (:mod:`fricfem.output.recorder`, :mod:`fricfem.output.fields`,
+:mod:`fricfem.output.record`); ``summary.json`` says ``"complete": false``
+until the run ends.  The directory is locked while the run writes it
+(:mod:`fricfem.output.directory`).
+
+An exception on one rank would leave the others waiting in a collective: on
+more than one rank it ends the whole job (``MPI_Abort``) after printing one
+line, and the outputs keep what was flushed (:func:`_guarded`).
 """
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 import threading
@@ -24,30 +33,34 @@ from . import scene as scene_mod
 from .model.build import build_model
 from .monitor import Monitor, Progress
 from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE
-from .output.recorder import Recorder
-from .output.rundir import jsonable, write_summary
+from .output.gauges import GAUGES_FILE, GaugeWriter
+from .output import directory
+from .output.directory import RunDirError
+from .output.record import whole, write_record
+from .output.recorder import Recorder, planned_rows
 from .scene import Scene, SceneError
-from .step import State, evolve
+from .scene.validate import check_identifier
+from .scene.output_keys import frame_times
+from .step import State
+from .step.stepper import step
 
-#: the files a run writes into its directory (``--overwrite`` removes these)
-RUN_FILES = (INTERFACE_FILE, FIELDS_FILE, "fields.h5", "summary.json")
+#: the files a run writes into its directory (``--overwrite`` removes what a manifest lists)
+RUN_FILES = directory.RUN_FILES
 
 
-def prepare_outdir(out: Path, comm, overwrite: bool) -> None:
-    """Refuse a non-empty run directory unless ``overwrite`` (checked before any heavy work)."""
-    problem = None
+def prepare_outdir(out: Path, comm, overwrite: bool):
+    """Make, lock and (``overwrite``) clear the run directory before any heavy work
+    (:func:`fricfem.output.directory.prepare`; collective); the lock on rank 0."""
+    lock = problem = None
     if comm.rank == 0:
-        if out.exists() and not out.is_dir():
-            problem = f"--out {str(out)!r}: exists and is not a directory"
-        elif out.exists() and any(out.iterdir()) and not overwrite:
-            problem = f"--out {str(out)!r}: directory is not empty; pass --overwrite to replace its run"
-        else:
-            out.mkdir(parents=True, exist_ok=True)
-            for name in RUN_FILES:
-                (out / name).unlink(missing_ok=True)
+        try:
+            lock = directory.prepare(out, overwrite)
+        except RunDirError as err:
+            problem = str(err)
     problem = comm.bcast(problem, root=0)
     if problem:
-        raise SceneError(problem)
+        raise RunDirError(problem)
+    return lock
 
 
 def _check_step(scene: Scene, model, comm) -> None:
@@ -71,6 +84,9 @@ def _summary(scene: Scene, pm, model, comm) -> dict:
         "interface_points": int(comm.allreduce(len(model.interface.geometry.x1))),
         "dt_s": model.dt, "dt_crit_s": model.dt_crit, "steps": 0, "t_end_s": scene.t_end,
         "speeds": scene.material.speeds(), "input": scene.raw,
+        # what fricfem plot needs for the isochromatic frames (output.frames, thickness, f_sigma)
+        "photoelastic": {"thickness_m": scene.output["thickness"], "f_sigma_N_per_m": scene.output["f_sigma"],
+                         "frames_s": frame_times(scene.output["frames"])},
     }
 
 
@@ -97,6 +113,25 @@ def _diagnose(rec: Recorder, tip_t, tip_x, speeds, every: int) -> dict:
     return out
 
 
+def n_steps(model, t_end: float) -> int:
+    """The number of steps to ``t_end`` (as :func:`fricfem.step.evolve` counts them)."""
+    return int(math.floor(t_end / model.dt + 1e-9))
+
+
+def _steps(model, state, t_end: float, energy_every: int, end: dict):
+    """:func:`fricfem.step.evolve` that also takes the energies in the last step:
+    yields ``(state, energies on the cadence or None)``; the last step's energies
+    (at t^n of that step, the last time the energies can be had) go to ``end["energy"]``."""
+    n_end = n_steps(model, t_end)
+    while state.n < n_end:
+        cadence = bool(energy_every) and state.n % energy_every == 0
+        e = {} if cadence or state.n == n_end - 1 else None
+        step(model, state, e)
+        if state.n == n_end and e is not None:
+            end["energy"] = e
+        yield state, (e if cadence else None)
+
+
 def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_step) -> str | None:
     """Step to the end time or until the monitor says stop; returns why it stopped (None: the end)."""
     stop = None
@@ -104,7 +139,7 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, lambda *_: setattr(monitor, "stop_requested", True))
     try:
-        for st, e in evolve(model, state, scene.t_end, scene.output["energy_every"]):
+        for st, e in _steps(model, state, scene.t_end, scene.output["energy_every"], monitor.end):
             if monitor.first_step_s is None:
                 monitor.first_step_s = time.perf_counter() - monitor.t_loop0
             stop = monitor.observe(st, e)
@@ -119,39 +154,89 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
     return stop
 
 
+def _guarded(comm, out: Path, fn):
+    """``fn()``; an exception on one rank of several ends the whole job: one line on
+    stderr, then ``MPI_Abort`` (the other ranks wait in a collective that would never
+    complete).  Errors raised on every rank by a collective check (SceneError,
+    RunDirError) and any error on a single rank propagate as usual."""
+    try:
+        return fn()
+    except (SceneError, RunDirError):
+        raise
+    except Exception as err:
+        if comm.size == 1:
+            raise
+        what = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) and err.filename and err.strerror \
+            else f"{type(err).__name__}: {err}"
+        sys.stderr.write(f"fricfem: error: rank {comm.rank} of {comm.size}: {' '.join(what.split())}; ending every "
+                         f"rank (MPI_Abort); {str(out)!r} keeps what was flushed\n")
+        sys.stderr.flush()
+        comm.Abort(1)
+
+
 def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = False, quiet: bool = False,
-              on_step=None) -> dict:
-    """Run ``scene`` writing the run directory ``out``; returns the summary (all ranks).
+              on_step=None, build=build_model) -> dict:
+    """Run ``scene`` writing the run directory ``out``; returns the run's whole record
+    (summary and evidence, as :func:`fricfem.output.rundir.read_summary` reads them; all ranks).
 
     ``on_step(state)`` is called after every step (tests, custom monitors).
+    ``build(scene, comm) -> (plate mesh, model)`` makes the model (default
+    :func:`~fricfem.model.build.build_model`; a batch passes
+    :meth:`fricfem.model.reuse.ModelCache.build` to reuse one across scenes).
+    The directory is locked while the run writes it; an exception on one rank of
+    several ends the job (:func:`_guarded`).
     """
     t_start = time.perf_counter()
     out = Path(out)
-    prepare_outdir(out, comm, overwrite)
-    pm, model = build_model(scene, comm)
+    lock = prepare_outdir(out, comm, overwrite)
+    try:
+        return _guarded(comm, out, lambda: _run(scene, out, comm, quiet, on_step, build, t_start))
+    finally:
+        if lock is not None:
+            lock.release()
+
+
+def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: float) -> dict:
+    """:func:`run_scene` once its directory is ready."""
+    pm, model = build(scene, comm)
     summary = _summary(scene, pm, model, comm)
     _check_step(scene, model, comm)
     if not scene.watchdog["max_slip_rate"]:
         scene = scene._replace(watchdog={**scene.watchdog, "max_slip_rate": scene.material.c_l})
-    rec = Recorder(out / INTERFACE_FILE, scene, model, summary["speeds"])
+    every = max(1, int(round(scene.output["interface_every"] / model.dt)))
+    rows = planned_rows(n_steps(model, scene.t_end), every, scene.output["energy_every"])
+    rec = Recorder(out / INTERFACE_FILE, scene, model, summary["speeds"], rows)
     writer = None
-    if scene.output["fields"]:
+    if scene.output["fields"] or scene.output["frames"]:
         from .output.fields import FieldWriter
 
-        writer = FieldWriter(out / FIELDS_FILE, model.V, scene.material, scene.sigma0, scene.tau0)
+        moduli = scene.material
+        if model.bodies is not None:  # steel in the buffer and the projectile
+            from .model.bodies import field_moduli
+
+            moduli = field_moduli(model.V, scene.mesh, scene.material, scene.experiment)
+        writer = FieldWriter(out / FIELDS_FILE, model.V, moduli, scene.sigma0, scene.tau0)
     t_setup = time.perf_counter() - t_start
     if comm.rank == 0:
-        write_summary(out, summary)
+        write_record(out, summary)
 
     def flush(st):
         rec.flush()
+        if monitor.gauges is not None:
+            monitor.gauges.flush()
         summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation)
         if comm.rank == 0:
-            write_summary(out, summary)
+            write_record(out, summary)
 
     state = State(model, skip_quiet=scene.skip_quiet)
-    every = max(1, int(round(scene.output["interface_every"] / model.dt)))
+    if model.bodies is not None:  # the projectile moves at t = 0
+        from .model.bodies import launch
+
+        launch(model, state)
     monitor = Monitor(scene, model, rec, writer, every, flush)
+    if scene.output["gauges"]:
+        monitor.gauges = GaugeWriter(out / GAUGES_FILE, scene, model)
+        monitor.gauges.observe(state)  # the state at t = 0
     progress = Progress(scene.t_end, enabled=(comm.rank == 0 and not quiet))
     monitor.t_loop0 = time.perf_counter()
     stop = _loop(model, state, scene, monitor, progress, on_step)
@@ -169,28 +254,50 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     rec.flush()
     if writer is not None:
         writer.close()
-    e = monitor.last_energy
+    if monitor.gauges is not None:
+        monitor.gauges.close()
     summary.update(
         steps=state.n, t_s=state.t, complete=stop not in ("signal", "watchdog"), interrupted=stop == "signal",
         watchdog=monitor.stopped, ended_early=monitor.ended_early, initiation=monitor.initiation,
-        energy=None if e is None else {**{k: e[k] for k in ENERGY}, "interface": e["interface_elastic"]},
+        energy=_energy(monitor),
     )
+    # slip-rate spikes (peak, place, time; fricfem/monitor.py Spikes): reported, never a stop
+    summary["slip_rate_spike"] = monitor.spikes.report()
     if comm.rank == 0 and scene.output["diagnostics"] and not monitor.stopped:
         try:
             summary.update(_diagnose(rec, monitor.tip_t, monitor.tip_x, summary["speeds"], every))
         except Exception as err:  # keep the run's outputs; say what failed
             summary["diagnostics_error"] = f"diagnostics failed: {type(err).__name__}: {err}"
+    if stop == "signal":  # the classifier needs the whole run: what it saw so far is evidence only
+        partial = summary.get("mode") or {}
+        summary["mode"] = {"label": "unknown", "reason": f"interrupted at t = {state.t * 1e6:.3f} µs, before "
+                           f"time.end = {scene.t_end * 1e6:.3f} µs", "partial_label": partial.get("label"),
+                           **({"evidence": partial["evidence"]} if "evidence" in partial else {})}
     rec.close()
     output_s = monitor.seconds + time.perf_counter() - t1
     summary["wall_s"] = {**wall, "output": output_s, "total": time.perf_counter() - t_start}
     summary["us_per_step"] = 1e6 * wall["time_loop"] / max(state.n, 1)
     if comm.rank == 0:
-        write_summary(out, summary)
-    return comm.bcast(jsonable(summary) if comm.rank == 0 else None, root=0)
+        write_record(out, summary)
+    return comm.bcast(whole(summary) if comm.rank == 0 else None, root=0)
+
+
+def _energy(monitor) -> dict | None:
+    """summary.json's energy budget [J/m]: at the run's last step (t^n of the step that
+    reached time.end), or at the last evaluation when the run stopped early."""
+    end = monitor.end.get("energy")
+    e = end if end is not None else monitor.last_energy
+    if e is None:
+        return None
+    return {"time_s": e["time"], "at": "end" if end is not None else "last evaluation (the run stopped early)",
+            **{k: e[k] for k in ENERGY if k != "time"}, "interface": e["interface_elastic"]}
 
 
 def resolve_and_run(ref, overrides=(), out=None, overwrite=False, quiet=False, comm=MPI.COMM_WORLD) -> dict:
     """Load + validate (before heavy work) and run; default ``out`` is ``runs/<scene>``."""
     scene = scene_mod.load(ref, overrides)
-    out = Path(out) if out else Path("runs") / scene.name
+    if not out:  # runs/<name> under the current directory, and nowhere else
+        check_identifier("name", scene.name, 128)
+        out = Path("runs") / scene.name
+    out = Path(out)
     return run_scene(scene, out, comm, overwrite=overwrite, quiet=quiet)

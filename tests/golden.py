@@ -90,8 +90,12 @@ def _energy(rundir: Path) -> dict:
 def fingerprint(rundir: Path) -> dict:
     """The fingerprint of a run directory (see the module docstring)."""
     rundir = Path(rundir)
+    from fricfem.output.record import read_evidence
+
     summary = json.loads((rundir / "summary.json").read_text())
     results = {k: summary.get(k) for k in SUMMARY_KEYS}
+    evidence = read_evidence(rundir)  # the per-step arrays: the tip every step, the fronts' tracks
+    results.update({k: evidence[k] for k in ("tip", "fronts") if k in evidence})
     results["mode"] = (summary.get("mode") or {}).get("label")
     energy = summary.get("energy") or {}
     return {

@@ -1,10 +1,17 @@
 """Friction laws: one module each, the same contract (see :mod:`.base`), a registry by name."""
 
-from .base import Law, Param, defaults, pack, param_names, storage, validate
+import math
+
+import numpy as np
+
+from .base import Law, Param, defaults, frictional_work, pack, param_names, sign, storage, validate
 from . import povirk_needleman, povirk_needleman_rate_tangent, rate_state_aging, rate_state_slip, slip_weakening, stuck
 
 LAWS = {law.name: law for law in (povirk_needleman.LAW, povirk_needleman_rate_tangent.LAW, slip_weakening.LAW,
                                    stuck.LAW, rate_state_aging.LAW, rate_state_slip.LAW)}
+
+#: The laws fricfem ships (never replaced by :func:`register_law`).
+BUILT_IN = frozenset(LAWS)
 
 
 def get_law(name: str) -> Law:
@@ -17,4 +24,74 @@ def get_law(name: str) -> Law:
         ) from None
 
 
-__all__ = ["Law", "Param", "LAWS", "get_law", "defaults", "pack", "param_names", "storage", "validate"]
+def _check_params(where: str, params) -> None:
+    if not isinstance(params, tuple) or not all(isinstance(p, Param) for p in params):
+        raise ValueError(f"{where}.params: expected a tuple of fricfem.friction.Param")
+    names = [p.name for p in params]
+    for p in params:
+        if not p.name.isidentifier() or names.count(p.name) > 1:
+            raise ValueError(f"{where}.params: {p.name!r} must be a unique Python identifier")
+        if not (math.isfinite(p.low) and math.isfinite(p.high) and p.low <= p.default <= p.high):
+            raise ValueError(f"{where}.params.{p.name}: default {p.default!r} must lie in its finite range "
+                             f"[{p.low!r}, {p.high!r}]")
+
+
+def _smoke(law: Law) -> None:
+    """Call the law's functions once, as the interface kernel will (compiles them):
+    the outputs of the contract (:mod:`.base`), finite, with the right sizes."""
+    where = f"register_law({law.name!r})"
+    p = pack(law, defaults(law))
+    state = np.asarray(law.initial_state(p, 1e6, 0.0), dtype=np.float64)
+    if state.shape != (len(law.state),):
+        raise ValueError(f"{where}: initial_state returned shape {state.shape}; the law declares "
+                         f"{len(law.state)} state variable(s) {law.state}")
+    for vs in (0.0, 1e3):  # a sticking and a strongly loaded step
+        s = storage(law, state)
+        try:
+            out = law.advance(p, s, 0.0, 1e6, 1e6, vs, 1e11, 1e-8)
+        except Exception as err:
+            raise ValueError(f"{where}: advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt) failed: "
+                             f"{type(err).__name__}: {err}") from None
+        if not (isinstance(out, tuple) and len(out) == 5):
+            raise ValueError(f"{where}: advance must return (Ts1, slip_rate, dslip, dwork, nsub), got {out!r}")
+        if not all(math.isfinite(float(v)) for v in out) or min(out[1], out[2], out[3]) < 0:
+            raise ValueError(f"{where}: advance returned {out!r}: every output finite, slip rate, slip and work "
+                             f">= 0")
+    if math.isnan(float(law.steady_mu(p, 1.0))):
+        raise ValueError(f"{where}: steady_mu(p, 1.0) is NaN")
+
+
+def register_law(law: Law, *, replace: bool = False) -> Law:
+    """Register a user's friction law under ``law.name`` (then ``friction.law = "<name>"``
+    in a scene, its parameters as ``friction.params.<name>``).
+
+    ``law`` is a :class:`Law` on the contract of :mod:`.base`: ``advance`` and
+    ``steady_mu`` numba functions (``@numba.njit``), ``initial_state`` a Python
+    function, parameters as :class:`Param` with units and ranges.  Its functions
+    are called once here (compiling them) and checked against the contract;
+    the interface kernel is specialised for the law when a run first uses it.
+    Under MPI every rank registers the law (the same script runs on each).
+    ``replace``: allow replacing a law registered before (never a built-in one).
+    Returns the law.  docs/api.md, "A law of your own".
+    """
+    if not isinstance(law, Law):
+        raise TypeError(f"register_law: expected a fricfem.friction.Law, got {type(law).__name__}")
+    where = f"register_law({law.name!r})"
+    if not isinstance(law.name, str) or not law.name.isidentifier():
+        raise ValueError(f"register_law: name {law.name!r} must be a Python identifier (it becomes friction.law)")
+    if law.name in BUILT_IN or (law.name in LAWS and not replace):
+        raise ValueError(f"{where}: a law of that name is registered already"
+                         + ("" if law.name in BUILT_IN else "; pass replace=True to replace it"))
+    _check_params(where, law.params)
+    if not isinstance(law.state, tuple) or not all(isinstance(s, str) and s.isidentifier() for s in law.state):
+        raise ValueError(f"{where}.state: expected a tuple of state-variable names (identifiers)")
+    for verb in ("advance", "steady_mu"):
+        if not hasattr(getattr(law, verb), "py_func"):
+            raise ValueError(f"{where}.{verb}: must be a numba function (decorate it with @numba.njit)")
+    _smoke(law)
+    LAWS[law.name] = law
+    return law
+
+
+__all__ = ["Law", "Param", "LAWS", "BUILT_IN", "get_law", "register_law", "defaults", "frictional_work", "pack",
+           "param_names", "sign", "storage", "validate"]

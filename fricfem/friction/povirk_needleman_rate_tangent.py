@@ -8,8 +8,8 @@ The law itself — parameters, state θ0, θ1, θ2, initial state, steady-state
 sub-steps, no located onset of slip and no implicit solve.  The paper's
 automatic step control is not reproduced: the step is the bulk's.  Where this
 update is unstable (slip rates of hundreds of m/s at a 20–100 ns step,
-docs/friction.md) a run is stopped by the watchdog (NaN or a slip rate above
-c_l).  ``gamma``, ``substep_tol`` and ``substep_stiff`` keep their names;
+docs/friction.md) θ0 turns negative and the values non-finite, and the
+watchdog stops the run.  ``gamma``, ``substep_tol`` and ``substep_stiff`` keep their names;
 only ``gamma`` (the rate-tangent parameter γ) is read.
 
     friction.law = "povirk_needleman_rate_tangent"

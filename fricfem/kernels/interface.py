@@ -119,6 +119,11 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
 #: (numba caches module-level functions, not ones a factory makes.)
 specialise = numba.njit(_nrt=False)(advance_points)
 
+
+# One piece (longer than the ~80 lines a function is kept to): per pair, the
+# trial velocities, the normal traction closing the gap, the law's shear and
+# the forces back share the pair's gathered values and masses in registers;
+# split into calls they would travel as tuples through the step's inner loop.
 def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
     """One bulk step of every rigid (split-node) pair on this rank (Andrews
     1999; Day et al. 2005, traction at split nodes).

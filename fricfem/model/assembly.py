@@ -41,6 +41,8 @@ def element_blocks(x, cells, material: Material) -> np.ndarray:
     c = np.stack([pc[:, 0] - pb[:, 0], pa[:, 0] - pc[:, 0], pb[:, 0] - pa[:, 0]], axis=1) / det[:, None]
     area = 0.5 * det
     lam, mu = material.lmbda, material.mu
+    if np.ndim(lam):  # moduli per cell (bodies of several materials: fricfem.model.bodies.CellMaterials)
+        lam, mu = lam[:, None, None], mu[:, None, None]
     bb = b[:, :, None] * b[:, None, :]
     cc = c[:, :, None] * c[:, None, :]
     bc = b[:, :, None] * c[:, None, :]  # b_a c_b
@@ -73,14 +75,15 @@ def _sum_in_order(keys, values) -> tuple:
 def canonical_rows(num, material: Material) -> tuple:
     """This rank's rows of K in the grid's order, summed over their cells in
     grid-cell order, so that every entry has the same bits on any number of
-    ranks.  Returns (rows int64[n_owned + 1] block-row pointers in local block
+    ranks.  ``material``: one :class:`Material`, or moduli per grid cell (an
+    object with ``take(cells)``, :class:`fricfem.model.bodies.CellMaterials`).  Returns (rows int64[n_owned + 1] block-row pointers in local block
     order, cols int64[n_blocks] grid nodes, increasing within a row, vals
     float64[n_blocks, 4] (K_xx, K_xy, K_yx, K_yy))."""
     own = np.zeros(len(num.x), dtype=bool)
     own[num.owned_nodes] = True
     sel = np.flatnonzero(own[num.cells].any(axis=1))  # cells touching an owned node, in grid order
     cells = num.cells[sel]
-    ke = element_blocks(num.x, cells, material)
+    ke = element_blocks(num.x, cells, material.take(sel) if hasattr(material, "take") else material)
     R = np.repeat(cells, 3, axis=1).ravel()  # (a, b) pairs: a repeated, b tiled
     C = np.tile(cells, (1, 3)).ravel()
     E = np.repeat(sel, 9)
@@ -96,16 +99,17 @@ def canonical_rows(num, material: Material) -> tuple:
     return ptr, cols, vals
 
 
-def canonical_mass(num, rho: float) -> np.ndarray:
+def canonical_mass(num, rho) -> np.ndarray:
     """Row-sum lumped mass of the owned dofs, ∫ ρ N_i dx = Σ_cells ρ A/3 over
-    each node's cells in grid-cell order (both components) [kg/m]."""
+    each node's cells in grid-cell order (both components) [kg/m]; ``rho`` a
+    scalar or float64[n_grid_cells]."""
     own = np.zeros(len(num.x), dtype=bool)
     own[num.owned_nodes] = True
     sel = np.flatnonzero(own[num.cells].any(axis=1))
     cells = num.cells[sel]
     pa, pb, pc = num.x[cells[:, 0]], num.x[cells[:, 1]], num.x[cells[:, 2]]
     det = (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pc[:, 0] - pa[:, 0]) * (pb[:, 1] - pa[:, 1])
-    share = rho * (0.5 * det) / 3.0
+    share = (rho[sel] if np.ndim(rho) else rho) * (0.5 * det) / 3.0  # rho: a scalar or one per grid cell
     R = cells.ravel()
     E = np.repeat(sel, 3)
     V = np.repeat(share, 3)[:, None]

@@ -20,6 +20,7 @@ from petsc4py import PETSc
 from .. import friction
 from ..step.fused import FusedBulk, block_rows
 from ..step.interface import Interface, RigidInterface
+from . import bodies as bodies_mod
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
@@ -65,12 +66,13 @@ class Model(NamedTuple):
     comm: object
     bulk: FusedBulk  # the one-pass step
     num: Numbering  # this rank's dofs against the grid
+    bodies: object = None  # the experiment's buffer and projectile (fricfem.model.bodies.Launch), or None
 
 
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
           dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic",
-          absorbing=()) -> Model:
+          absorbing=(), state_tau0=None, like: Model | None = None, experiment=None) -> Model:
     """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.model.mesh.PlateMesh`).
     Collective.
 
@@ -78,30 +80,53 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     params    packed law parameters: float64[n_params], or a callable x1 -> float64[n, n_params]
     sigma0    initial compression Σ0 [Pa] (T_n = Σ0 on the interface at t <= 0)
     Cn, Cs    interface stiffnesses [Pa/m] (scalars or callables of x1)
-    tau0      initial shear traction on the interface [Pa] (scalar or callable of x1)
+    tau0      initial shear traction on the interface [Pa] (scalar or callable of x1;
+              a rigid pair takes its mean over the pair's share, ``iface_mod.pair_mean``)
     impact_tags  edges carrying the impact (none: the edge is free)
     dt        fixed step [s]; default ``dt_safety · 2/√λmax``, rounded down to 3 digits
     interface_kind  "elastic" (springs C_n, C_s at 4 Gauss points a segment, the paper's)
               or "rigid" (split-node pairs: the traction from the pairs' trial velocities)
     absorbing outer edges with dashpots (of :data:`fricfem.model.grid.OUTER`)
+    state_tau0  the shear traction the law's initial state is set from (scalar or
+              callable of x1; default ``tau0``, each point's own)
+    like      a model built on ``pm`` with the same material, interface kind and
+              stiffnesses, struck edges, load kind, step and absorbing edges
+              (:func:`fricfem.model.reuse.model_key`): its K, lumped mass,
+              numbering, interface geometry, λmax, dt and the fused step's rows and
+              scatters are taken as they are, and only the interface points, the law
+              and the load are made here (not collective then)
+    experiment  the experiment's steel buffer and projectile
+              (:class:`fricfem.model.bodies.Experiment`; ``pm`` built from a
+              :class:`fricfem.model.bodies.BodiesMesh`), or None
     """
     if interface_kind not in INTERFACE_KINDS:
         raise ValueError(f"interface_kind = {interface_kind!r}: one of {INTERFACE_KINDS}")
-    comm = pm.mesh.comm
-    V = function_space(pm.mesh)
-    num = numbering(pm, V)
-    rows = canonical_rows(num, material)
-    K = petsc_matrix(num, rows, comm)
-    mass = canonical_mass(num, material.rho)
-    dofs = impact_dofs(V, pm.facet_tags, impact_tags)
-    if interface_kind == "rigid":
-        geom = iface_mod.build_pairs(num, K.createVecRight(), mass, comm, dofs if pulse.prescribed else ())
+    if like is None:
+        comm = pm.mesh.comm
+        V = function_space(pm.mesh)
+        num = numbering(pm, V)
+        cells = material if experiment is None else bodies_mod.cell_materials(num, pm.spec, material, experiment)
+        rows = canonical_rows(num, cells)
+        K = petsc_matrix(num, rows, comm)
+        mass = canonical_mass(num, cells.rho)
+        dofs = impact_dofs(V, pm.facet_tags, impact_tags)
+        if interface_kind == "rigid":
+            geom = iface_mod.build_pairs(num, K.createVecRight(), mass, comm, dofs if pulse.prescribed else ())
+        else:
+            geom = iface_mod.build_geometry(num, K.createVecRight(), comm)
     else:
-        geom = iface_mod.build_geometry(num, K.createVecRight(), comm)
+        num, mass, dofs, geom = like.num, like.mass, like.impact.dofs, like.interface.geometry
     x1 = geom.x1
+
+    def traction(f):  # a rigid pair carries the mean of a traction field over its share (iface_mod.pair_mean)
+        if interface_kind == "rigid" and callable(f):
+            return iface_mod.pair_mean(f, geom.x1_nodes, geom.pairs)
+        return _per_point(f, x1)
+
     points = iface_mod.make_points(
         law, _per_point(params, x1, len(law.params)), len(x1), sigma0,
-        _per_point(tau0, x1), _per_point(Cn, x1), _per_point(Cs, x1),
+        traction(tau0), _per_point(Cn, x1), _per_point(Cs, x1),
+        state_Ts0=None if state_tau0 is None else traction(state_tau0),
     )
     interface = (RigidInterface if interface_kind == "rigid" else Interface)(geom, points, law)
     impact = Impact(dofs, mass[dofs].copy(), pulse, np.zeros(len(dofs)), np.zeros(len(dofs)))
@@ -109,13 +134,18 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         area = edge_weights(num, impact_tags, dofs)
         z_force, z_damp = pulse.impedances(material.rho * material.c_l)
         impact = impact._replace(force=z_force * area, damp=z_damp * area)
+    if like is not None:
+        return like._replace(impact=impact, interface=interface, bulk=like.bulk.rebind(interface, impact))
+    launch = None
+    if experiment is not None:  # the projectile's contact on the buffer joins the frictional interface
+        interface, launch = bodies_mod.attach(num, K, mass, comm, interface, pm.spec, experiment)
     lam = max_eigenvalue(K, mass, interface, num)
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
     bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
                      dashpots(num, tuple(absorbing), material))
-    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk, num)
+    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk, num, launch)
 
 
 def impact_tags(scene) -> tuple:
@@ -129,12 +159,18 @@ def impact_tags(scene) -> tuple:
 def point_params(scene, x1) -> np.ndarray:
     """Packed friction parameters per interface point, float64[n, n_params]:
     the scene's, with each ``friction.regions`` entry applied where
-    x1_min <= x1 <= x1_max (regions may not overlap: scene validation)."""
+    x1_min <= x1 <= x1_max (regions may not overlap: scene validation), then each
+    ``friction.profiles`` parameter interpolated linearly between its knots
+    (constant beyond the ends; a profiled parameter is in no region)."""
     law = friction.get_law(scene.law)
     out = np.tile(friction.pack(law, scene.params), (len(x1), 1))
     for reg in scene.regions:
         sel = (x1 >= reg["x1_min"]) & (x1 <= reg["x1_max"])
         out[sel] = friction.pack(law, {**scene.params, **reg.get("params", {})})
+    names = friction.param_names(law)
+    for name, knots in scene.profiles:
+        kx, kv = np.array(knots, dtype=np.float64).T
+        out[:, names.index(name)] = np.interp(x1, kx, kv)
     return out
 
 
@@ -147,14 +183,23 @@ def point_tau0(scene, x1) -> np.ndarray:
     return out
 
 
-def build_model(scene, comm):
+def build_model(scene, comm, like=None):
     """Mesh and model of a validated scene (:class:`fricfem.scene.Scene`); collective.
-    Returns ``(plate mesh, model)``."""
-    pm = mesh_mod.build(scene.mesh, comm)
+    Returns ``(plate mesh, model)``.  ``like``: the ``(plate mesh, model)`` of a scene
+    with the same :func:`fricfem.model.reuse.model_key`, whose mesh and assembled
+    parts are reused (``build(like=...)``; the result is the same, bit for bit).
+    A scene with the experiment's bodies is always built in full (``like`` is
+    ignored: its contact and projectile are not part of what a model shares)."""
+    experiment = getattr(scene, "experiment", None)
+    if experiment is not None:
+        like = None
+    pm = mesh_mod.build(scene.mesh, comm) if like is None else like[0]
     model = build(
         pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
         scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
         dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=scene.interface_kind,
         absorbing=scene.absorbing,
+        state_tau0=scene.tau0 if scene.initial_state == "background" else None,
+        like=None if like is None else like[1], experiment=experiment,
     )
     return pm, model

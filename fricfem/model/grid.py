@@ -30,6 +30,11 @@ TAGS = {
     "top": 32,  # the upper plate's far edge, x2 = +height
     "right": 33,  # x1 = length, both plates
     "left": 34,  # x1 = 0 outside the struck segments, both plates
+    # the experiment's steel bodies (fricfem.model.bodies): cells, and the projectile's contact faces
+    "buffer": 3,
+    "projectile": 4,
+    "contact_buffer": 41,
+    "contact_projectile": 42,
 }
 
 #: The outer edges by name (each can be made absorbing).
@@ -136,7 +141,13 @@ def grid_arrays(spec) -> tuple:
     int32[n_cells], facets int64[n_facets, 2], facet_tags int32[n_facets]);
     facets are grouped by tag in increasing tag order, lower plate before
     upper within a tag (the order a gmsh model of the grid is read back in).
+    A spec with the experiment's steel bodies (:class:`fricfem.model.bodies.BodiesMesh`)
+    adds them after the plates (:func:`fricfem.model.bodies.grid_arrays`).
     """
+    if hasattr(spec, "buffer_length"):
+        from .bodies import grid_arrays as with_bodies
+
+        return with_bodies(spec)
     lo, up = plate_grid(spec, False), plate_grid(spec, True)
     off = len(lo.x)
     x = np.vstack([lo.x, up.x])
@@ -180,7 +191,12 @@ def bisection_parts(centroids: np.ndarray, nparts: int) -> np.ndarray:
 
 
 def write_msh(spec, path: str) -> None:
-    """Write the two-plate grid as a gmsh model (.msh) with physical groups named after :data:`TAGS`."""
+    """Write the two-plate grid as a gmsh model (.msh) with physical groups named after :data:`TAGS`
+    (with the experiment's steel bodies: :func:`fricfem.model.bodies.write_msh`)."""
+    if hasattr(spec, "buffer_length"):
+        from .bodies import write_msh as with_bodies
+
+        return with_bodies(spec, path)
     import gmsh
 
     gmsh.initialize()

@@ -213,22 +213,55 @@ class Points(NamedTuple):
         return tuple(self[6:])
 
 
-def make_points(law, params, n, Tn0, Ts0, Cn, Cs) -> Points:
+def make_points(law, params, n, Tn0, Ts0, Cn, Cs, state_Ts0=None) -> Points:
     """Initial interface points: ``params`` float64[n, n_params] (packed per point);
-    ``Tn0``, ``Ts0``, ``Cn``, ``Cs`` scalars or float64[n]."""
+    ``Tn0``, ``Ts0``, ``Cn``, ``Cs`` scalars or float64[n].  ``state_Ts0``: the
+    shear traction the law's initial state is set from (default ``Ts0``, each
+    point's own; e.g. the background traction outside a nucleation patch, so that
+    the patch starts overstressed against its state)."""
     full = lambda v: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()  # noqa: E731
     Tn0, Ts0, Cn, Cs = full(Tn0), full(Ts0), full(Cn), full(Cs)
+    Tss = Ts0 if state_Ts0 is None else full(state_Ts0)
     params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
     rows, index = np.unique(params, axis=0, return_inverse=True)
     state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
     for q in range(n):  # once, at set-up
-        state[q] = storage(law, law.initial_state(params[q], Tn0[q], Ts0[q]))
+        state[q] = storage(law, law.initial_state(params[q], Tn0[q], Tss[q]))
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
         Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state,
         Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
+
+
+def pair_mean(f, x1_nodes: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """The mean of a field along x1 over each node pair's share of the interface,
+    weighted by the node's hat function N_k: ∫ N_k f ds / ∫ N_k ds, by the
+    elastic interface's 4-point Gauss rule on the (up to) two segments beside
+    the node.  ``f``: a callable of x1 [m] (float64[m] -> float64[m]).
+
+    This is the traction a rigid pair carries when the field is a traction:
+    its nodal force ∫ N_k f ds divided by its length A_k, the same force the
+    elastic interface's Gauss points give the node.  A field that jumps at a
+    node (a patch edge on the grid) gives that node the mean of its two sides,
+    so the patch acts over its own length, not over half a cell more on each
+    side, as a point value at the node would (an error of first order in the
+    cell size)."""
+    xn = np.asarray(x1_nodes, dtype=np.float64)
+    k = np.asarray(pairs, dtype=np.int64)
+    s = 0.5 * (1.0 + GAUSS_XI)  # Gauss points on [0, 1]
+    num = np.zeros(len(k))
+    den = np.zeros(len(k))
+    for a, b, shape in ((k - 1, k, s), (k, k + 1, 1.0 - s)):
+        ok = (a >= 0) & (b < len(xn))
+        h = np.where(ok, xn[np.clip(b, 0, len(xn) - 1)] - xn[np.clip(a, 0, len(xn) - 1)], 0.0)
+        x = xn[np.clip(a, 0, len(xn) - 1)][:, None] + h[:, None] * s[None, :]
+        w = 0.5 * h[:, None] * GAUSS_W[None, :] * shape[None, :]
+        vals = np.asarray(f(x.ravel()), dtype=np.float64).reshape(x.shape)
+        num += (w * vals).sum(axis=1)
+        den += w.sum(axis=1)
+    return num / den
 
 
 class PairGeometry(NamedTuple):

@@ -11,11 +11,19 @@ Run directory (format version :data:`FORMAT`):
   entry and per law state variable (``state/<name>``); station histories at
   every step under ``stations/<name>`` (``time`` and each quantity); the
   energy history under ``energy/`` (:data:`ENERGY`).  Each dataset carries a
-  ``unit`` attribute.  The root attribute ``n_time`` (and ``n`` per station,
-  per energy group) counts the valid rows.
-- ``fields.xdmf`` + ``fields.h5`` — :data:`FIELDS` at the requested times.
-- ``summary.json`` — the run's record (scene, sizes, step, timing, initiation,
-  tip, fronts, mode, energy), with a ``units`` table.
+  ``unit`` attribute.  Every dataset has the size of the whole run, laid out
+  with NaN when the run starts; the valid rows are the leading rows whose
+  time is finite (a finished run that stopped early is trimmed to them;
+  :mod:`.recorder`).  Files of format 2 counted them in the root attribute
+  ``n_time`` (``n`` per station); the readers take either.
+- ``fields.xdmf`` + ``fields/`` (``mesh.h5``, one ``tNNNN.h5`` per snapshot) —
+  :data:`FIELDS` at the requested times, one temporal collection
+  (:mod:`.fields`).
+- ``summary.json`` — the run's record for people (scene, sizes, step, timing,
+  initiation, tip, fronts, mode, the energy at the end time), with a ``units``
+  block; ``evidence.json`` — its per-step arrays (:mod:`.record`).
+- ``.fricfem-manifest.json`` — what fricfem writes there; ``.fricfem.lock`` while
+  a run writes (:mod:`.directory`).
 """
 
 from __future__ import annotations
@@ -24,7 +32,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-FORMAT = 2  # interface.h5 / summary.json layout version
+FORMAT = 3  # interface.h5 / summary.json layout version
 
 INTERFACE_FILE = "interface.h5"
 SUMMARY_FILE = "summary.json"

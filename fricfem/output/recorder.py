@@ -1,28 +1,81 @@
 """Writes ``interface.h5`` as a run goes: interface snapshots, station histories,
 energies (the format: :mod:`.quantities`).  Rank 0 writes; the others send.
+
+Crash safety.  The file is laid out whole before the run starts: every dataset
+has the size of the full run (rows from the run's step count), contiguous,
+allocated and filled with NaN when it is created, and all of its metadata is
+written once, under a temporary name that is renamed to ``interface.h5`` only
+when complete.  After that only raw data is written, in place, and never a
+byte of HDF5 metadata: whatever instant a process is killed at, the file's
+structure is the one it was created with.  A flush writes the pending rows'
+values first and their times after them (each step followed by an HDF5 flush
+into the operating system), so a row whose time is finite is complete: the
+valid rows are the leading rows with a finite time (:mod:`.rundir`).  When
+the run ends (complete, or stopped early by the tip, the watchdog or SIGTERM)
+the file is copied to one of exactly the rows it has, with their counts as
+the attributes ``n_time`` (root) and ``n`` (per station, energy) that readers
+of earlier formats use, and renamed over the original: a finished run holds
+no NaN rows.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 
-from .quantities import ENERGY, QUANTITIES
+from .quantities import ENERGY, FORMAT, QUANTITIES, unit
+from .regions import write_regions
+
+#: rows written per block when a dataset is copied
+_BLOCK_BYTES = 8 << 20
+
+
+def planned_rows(n_steps: int, every: int, energy_every: int) -> dict:
+    """Rows a run of ``n_steps`` steps writes: interface snapshots (after steps
+    1, 1 + every, ...), station rows (every step), energy rows (at the start of
+    steps 0, energy_every, ...)."""
+    snaps = (n_steps - 1) // every + 1 if n_steps > 0 else 0
+    energy = (n_steps - 1) // energy_every + 1 if n_steps > 0 and energy_every > 0 else 0
+    return {"snapshots": snaps, "stations": n_steps, "energy": energy}
+
+
+def _dataset(group, name: str, shape, dtype, unit_: str):
+    """A contiguous dataset allocated and filled (NaN, or -1 for integers) at creation."""
+    import h5py
+
+    dtype = np.dtype(dtype)
+    fill = np.array(np.nan if dtype.kind == "f" else -1, dtype=dtype)
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
+    dcpl.set_fill_value(fill)
+    d = group.create_dataset(name, shape=shape, dtype=dtype, dcpl=dcpl)
+    d.attrs["unit"] = unit_
+    return d
 
 
 class Recorder:
-    """Interface snapshots, station histories and energies → ``interface.h5`` (rank 0 writes)."""
+    """Interface snapshots, station histories and energies → ``interface.h5`` (rank 0 writes).
 
-    def __init__(self, path: Path, scene, model, speeds: dict):
+    ``rows``: :func:`planned_rows` of the run — the size every dataset is made
+    with, so a file system too small for the run fails here, before the loop.
+    Creating the file is collective: an error (no space, a read-only file
+    system) is a :class:`~.directory.RunDirError` naming the path on every rank.
+    """
+
+    def __init__(self, path: Path, scene, model, speeds: dict, rows: dict):
         self.itf = model.interface
         self.comm = model.comm
         self.law = self.itf.law
+        self.path = Path(path)
         geom = self.itf.geometry
         x1_all = np.concatenate(self.comm.allgather(geom.x1))
         self.order = np.argsort(x1_all, kind="stable")
         self.x1 = x1_all[self.order]
         self.n_point = len(self.x1)
+        self.rows = dict(rows)
         # stations: nearest Gauss point; its owner records every step
         self.stations = {}
         for name, xs in scene.output["stations"].items():
@@ -31,33 +84,73 @@ class Recorder:
             local = np.flatnonzero(geom.x1 == xq)
             self.stations[name] = (xq, int(local[0]) if len(local) else -1)
         self.station_buf = {name: [] for name in self.stations}
+        self.station_n = {name: 0 for name in self.stations}
         self.snap_t: list = []
         self.snap_rows: dict = {q.name: [] for q in QUANTITIES}
         self.snap_rows.update({f"state/{s}": [] for s in self.law.state})
         self.energy_rows: list = []
-        self.pending = 0
+        self.written = {"snapshots": 0, "energy": 0}  # rows in the file
         self.h5 = None
+        error = None
         if self.comm.rank == 0:
-            import h5py
+            try:
+                self.h5 = self._create(scene, speeds)
+            except OSError as err:
+                need = _nbytes(self.rows, self.n_point, len(self.snap_rows), len(self.stations), len(ENERGY))
+                error = f"{err.filename}: cannot write the run's interface file ({need / 1e6:.3g} MB): {err.strerror}"
+        error = self.comm.bcast(error, root=0)
+        if error is not None:
+            from .directory import RunDirError
 
-            self.h5 = h5py.File(path, "w")
-            f = self.h5
-            f.attrs.update(scene=scene.name, sigma0=scene.sigma0, v_imp=scene.pulse.v_imp, n_time=0,
-                           law=scene.law, units="SI", **{k: v for k, v in speeds.items()})
+            raise RunDirError(error)
+
+    def _create(self, scene, speeds):
+        """Lay the file out whole under a temporary name, flush it, rename it (rank 0)."""
+        import h5py
+
+        tmp = self.path.with_name(f".{self.path.name}.part")
+        tmp.unlink(missing_ok=True)
+        try:  # without HDF5's own file lock (.fricfem.lock guards the directory), so this process can read it
+            f = h5py.File(tmp, "w", locking=False)
+        except (OSError, ValueError) as err:
+            raise h5_error(err, tmp) from None
+        try:
+            f.attrs.update(scene=scene.name, sigma0=scene.sigma0, v_imp=scene.pulse.v_imp, law=scene.law,
+                           units="SI", format=FORMAT, rows_planned=self.rows["snapshots"],
+                           valid_rows="the leading rows whose time is finite (NaN: not computed)",
+                           **{k: v for k, v in speeds.items()})
             f["x1"] = self.x1
-            f.create_dataset("time", (0,), maxshape=(None,), dtype="f8", chunks=(256,))
-            chunk = (max(1, min(64, 2**20 // (8 * max(self.n_point, 1)))), max(self.n_point, 1))
+            write_regions(f, scene.regions, self.x1)  # the friction.regions entry of each point
+            f["x1"].attrs["unit"] = "m"
+            n = self.rows["snapshots"]
+            _dataset(f, "time", (n,), "f8", "s")
             for q in self.snap_rows:
-                dtype = "i1" if q == "open" else "f8"
-                f.create_dataset(q, (0, self.n_point), maxshape=(None, self.n_point), dtype=dtype, chunks=chunk)
+                _dataset(f, q, (n, self.n_point), "i1" if q == "open" else "f8", unit(q))
             for name, (xq, _) in self.stations.items():
                 g = f.create_group(f"stations/{name}")
-                g.attrs.update(x1=xq, n=0)
-                for name in ["time", *(q.name for q in QUANTITIES)]:
-                    g.create_dataset(name, (0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+                g.attrs.update(x1=xq, x1_unit="m")
+                for col in ["time", *(q.name for q in QUANTITIES)]:
+                    _dataset(g, col, (self.rows["stations"],), "f8", "s" if col == "time" else unit(col))
             g = f.create_group("energy")
+            g.attrs["unit"] = "J/m (per unit thickness); time in s"
             for k in ENERGY:
-                g.create_dataset(k, (0,), maxshape=(None,), dtype="f8", chunks=(256,))
+                _dataset(g, k, (self.rows["energy"],), "f8", ENERGY[k])
+            f.flush()
+            os.replace(tmp, self.path)
+            self.ds = {name: f[name] for name in ("time", *self.snap_rows)}  # handles: lookups cost
+            self.ds.update({f"energy/{k}": f["energy"][k] for k in ENERGY})
+            self.ds.update({f"stations/{s}/{c}": f[f"stations/{s}/{c}"] for s in self.stations
+                            for c in ["time", *(q.name for q in QUANTITIES)]})
+        except BaseException as err:
+            try:
+                f.close()
+            except (OSError, ValueError, RuntimeError):
+                pass
+            tmp.unlink(missing_ok=True)
+            if isinstance(err, (OSError, ValueError)):  # h5py reports a failed write as either
+                raise h5_error(err, self.path) from None
+            raise
+        return f
 
     def _gather(self, arr) -> np.ndarray | None:
         parts = self.comm.gather(np.ascontiguousarray(arr, dtype=np.float64), root=0)
@@ -75,7 +168,6 @@ class Recorder:
             self.snap_t.append(t)
             for q, v in row.items():
                 self.snap_rows[q].append(v)
-            self.pending += 1
         return row
 
     def station_step(self, t: float) -> None:
@@ -90,42 +182,41 @@ class Recorder:
             self.energy_rows.append([e[k] for k in ENERGY])
 
     def flush(self) -> None:
-        """Append everything pending to the file and flush it (collective)."""
+        """Append everything pending to the file (collective): the values of the new
+        rows, an HDF5 flush, then their times, another flush."""
         bufs = {name: self.comm.gather(self.station_buf[name], root=0) for name in self.stations}
         for name in self.stations:
             self.station_buf[name] = []
         if self.comm.rank != 0:
             return
-        f = self.h5
-        n0 = f["time"].shape[0]
-        new = self.snap_t[n0:]
-        if new:
-            n1 = n0 + len(new)
-            f["time"].resize((n1,))
-            f["time"][n0:n1] = new
+        f, ds = self.h5, self.ds
+        times = []  # (dataset, start, values): written after every value is in the file
+        n0, n1 = self.written["snapshots"], len(self.snap_t)
+        if n1 > n0:
             for q, rows in self.snap_rows.items():
-                f[q].resize((n1, self.n_point))
-                f[q][n0:n1] = np.array(rows[n0:n1])
-            f.attrs["n_time"] = n1
+                ds[q][n0:n1] = np.array(rows[n0:n1])
+            times.append((ds["time"], n0, np.array(self.snap_t[n0:n1])))
         for name, parts in bufs.items():
             rows = [r for part in parts for r in part]
             if not rows:
                 continue
-            g = f[f"stations/{name}"]
-            a = np.array(rows)
-            m0 = g["time"].shape[0]
-            for j, name in enumerate(["time", *(q.name for q in QUANTITIES)]):
-                g[name].resize((m0 + len(a),))
-                g[name][m0:] = a[:, j]
-            g.attrs["n"] = m0 + len(a)
-        g = f["energy"]
-        m0 = g["time"].shape[0]
-        if len(self.energy_rows) > m0:
-            a = np.array(self.energy_rows[m0:])
+            a, m0 = np.array(rows), self.station_n[name]
+            for j, q in enumerate(QUANTITIES, start=1):
+                ds[f"stations/{name}/{q.name}"][m0:m0 + len(a)] = a[:, j]
+            times.append((ds[f"stations/{name}/time"], m0, a[:, 0]))
+            self.station_n[name] = m0 + len(a)
+        k0, k1 = self.written["energy"], len(self.energy_rows)
+        if k1 > k0:
+            a = np.array(self.energy_rows[k0:k1])
             for j, k in enumerate(ENERGY):
-                g[k].resize((len(self.energy_rows),))
-                g[k][m0:] = a[:, j]
+                if k != "time":
+                    ds[f"energy/{k}"][k0:k1] = a[:, j]
+            times.append((ds["energy/time"], k0, a[:, list(ENERGY).index("time")]))
         f.flush()
+        for dset, start, values in times:
+            dset[start:start + len(values)] = values
+        f.flush()
+        self.written = {"snapshots": n1, "energy": k1}
 
     def history(self):
         """(time, slip_rate[n_t, n_p]) recorded so far (rank 0; None elsewhere)."""
@@ -134,8 +225,66 @@ class Recorder:
         return np.array(self.snap_t), np.array(self.snap_rows["slip_rate"])
 
     def close(self) -> None:
-        if self.h5 is not None:
-            self.h5.close()
+        """Close the file and replace it by a copy of its valid rows with their counts (rank 0)."""
+        if self.h5 is None:
+            return
+        f, self.h5 = self.h5, None
+        f.close()
+        compact(self.path, {"": self.written["snapshots"], "energy": self.written["energy"],
+                            **{f"stations/{k}": n for k, n in self.station_n.items()}})
+
+
+def compact(path: Path, rows: dict) -> None:
+    """Replace ``path`` by a copy holding the first ``rows[group]`` rows of every
+    dataset of each group ("" the root; ``x1`` whole), with the counts as the
+    attributes ``n_time`` (root) and ``n`` (each other group), written under a
+    temporary name and renamed over it."""
+    import h5py
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.compact")
+    with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
+        dst.attrs.update(dict(src.attrs))
+
+        def copy(name, obj):
+            if isinstance(obj, h5py.Group):
+                dst.require_group(name).attrs.update(dict(obj.attrs))
+                return
+            group = name.rpartition("/")[0]
+            group = "" if group.startswith("state") else group
+            n = obj.shape[0] if name == "x1" else min(obj.shape[0], rows.get(group, obj.shape[0]))
+            d = dst.create_dataset(name, shape=(n,) + obj.shape[1:], dtype=obj.dtype)
+            d.attrs.update(dict(obj.attrs))
+            step = max(1, _BLOCK_BYTES // max(1, obj.dtype.itemsize * int(np.prod(obj.shape[1:]))))
+            for i in range(0, n, step):
+                d[i:min(n, i + step)] = obj[i:min(n, i + step)]
+
+        src.visititems(copy)
+        for group, n in rows.items():
+            dst.require_group(group or "/").attrs["n_time" if not group else "n"] = int(n)
+    os.replace(tmp, path)
+
+
+def _nbytes(rows: dict, n_point: int, n_quantities: int, n_stations: int, n_energy: int) -> int:
+    """The size of the interface file's data [bytes]."""
+    return 8 * (rows["snapshots"] * (1 + n_point * n_quantities) + rows["stations"] * n_stations * 10
+                + rows["energy"] * n_energy)
+
+
+def h5_error(err: Exception, path) -> OSError:
+    """An OSError naming ``path`` with the operating system's reason and errno found in
+    an h5py error message (h5py reports them in its text only)."""
+    text, errno = str(err), getattr(err, "errno", None)
+    if errno is None and "errno = " in text:
+        digits = text.split("errno = ", 1)[1].split(",", 1)[0].strip()
+        errno = int(digits) if digits.isdigit() else None
+    if "error message = '" in text:
+        reason = text.split("error message = '", 1)[1].split("'", 1)[0]
+    elif errno:
+        reason = os.strerror(errno)
+    else:
+        reason = text
+    return OSError(errno, reason, str(path))
 
 
 def interface_profile(interface, names=("slip_rate", "shear_traction")) -> dict:
@@ -155,3 +304,4 @@ def interface_profile(interface, names=("slip_rate", "shear_traction")) -> dict:
     for k, sname in enumerate(interface.law.state):
         out[sname] = np.concatenate(comm.allgather(np.ascontiguousarray(p.state[:, k])))[order]
     return out
+

@@ -1,17 +1,18 @@
 """Reading a run directory (and writing its summary): the one place that knows
 where things are in ``interface.h5``, ``summary.json`` and ``fields.xdmf``.
 
-The layout is :mod:`.quantities`'s.  Readers take only the valid rows (the
-root attribute ``n_time``, per station ``n``), so a run that is still going or
-was killed reads as far as it got.  Files are opened read-only without
-HDF5's file lock, so a live run can be read.
+The layout is :mod:`.quantities`'s.  Readers take only the valid rows — the
+leading rows whose time is finite (:mod:`.recorder` lays the file out whole
+with NaN and writes a row's time after its values), or the root attribute
+``n_time`` (per station ``n``) of files written before that — so a run that
+is still going or was killed reads as far as it was flushed.  Files are opened
+read-only without HDF5's file lock, so a live run can be read.
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import logging
 import math
 import os
@@ -20,7 +21,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .quantities import INTERFACE_FILE, SUMMARY_FILE
+from .quantities import INTERFACE_FILE
+from .record import jsonable, read_evidence, read_summary, write_summary  # noqa: F401 (the readers' API)
 
 log = logging.getLogger("fricfem.output")
 
@@ -50,18 +52,6 @@ class RunInfo:
         if load:
             parts.append(", ".join(load))
         return " — ".join(parts)
-
-
-def read_summary(rundir) -> dict:
-    """``summary.json`` of a run directory as a dict ({} if absent or unreadable)."""
-    path = Path(rundir) / SUMMARY_FILE
-    if not path.is_file():
-        return {}
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        log.warning("%s: not readable (%s); plotting without it", path, err)
-        return {}
 
 
 def _attr(attrs, key, default=None):
@@ -100,6 +90,18 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(float(v))
 
 
+def valid_rows(time, n_attr=None) -> int:
+    """How many leading rows of a ``time`` dataset are valid: those with a finite,
+    increasing time, and at most ``n_attr`` (the count files written before the
+    NaN layout kept) when given."""
+    t = np.asarray(time[...], dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(t))
+    n = int(bad[0]) if len(bad) else len(t)
+    back = np.flatnonzero(np.diff(t[:n]) <= 0)
+    n = int(back[0]) + 1 if len(back) else n
+    return n if n_attr is None else max(0, min(n, int(n_attr)))
+
+
 @dataclasses.dataclass
 class Station:
     """Histories at one interface point: ``data[name]`` float64[n] against ``time`` [s]."""
@@ -114,23 +116,15 @@ class InterfaceFile:
     """The valid rows of an open ``interface.h5`` (read lazily, row by row or whole).
 
     ``x1`` float64[n_point] [m], ``time`` float64[n_time] [s], ``n_time`` the
-    number of valid rows: the root attribute ``n_time`` when present, else
-    the leading rows whose times increase (a writer killed before setting the
-    attribute leaves zero rows behind).
+    number of valid rows (:func:`valid_rows`).
     """
 
     def __init__(self, f: h5py.File):
         self.file = f
         self.attrs = f.attrs
         self.x1 = f["x1"][...]
-        time = f["time"]
-        n = _attr(f.attrs, "n_time")
-        if n is None:
-            t = time[...]
-            bad = np.flatnonzero(np.diff(t) <= 0)
-            n = int(bad[0]) + 1 if len(bad) else len(t)
-        self.n_time = int(min(int(n), time.shape[0]))
-        self.time = time[: self.n_time]
+        self.n_time = valid_rows(f["time"], _attr(f.attrs, "n_time"))
+        self.time = f["time"][: self.n_time]
 
     def has(self, name: str) -> bool:
         return name in self.file
@@ -163,8 +157,7 @@ class InterfaceFile:
         """{name: :class:`Station`} of the valid rows of every station."""
         out = {}
         for name, g in (self.file.get("stations") or {}).items():
-            n = _attr(g.attrs, "n")
-            n = len(g["time"]) if n is None else min(int(n), len(g["time"]))
+            n = valid_rows(g["time"], _attr(g.attrs, "n"))
             data = {k: np.asarray(g[k][:n], dtype=np.float64) for k in g if k != "time" and g[k].ndim == 1}
             out[name] = Station(name, float(_attr(g.attrs, "x1", np.nan)), g["time"][:n], data)
         return out
@@ -236,16 +229,18 @@ _XDMF_CELLS = {"Triangle": (5, 3), "Quadrilateral": (9, 4)}
 
 
 class FieldReader:
-    """Snapshots of one function of a dolfinx ``fields.xdmf`` (+ ``.h5``).
+    """Snapshots of one function of a ``fields.xdmf`` (+ its HDF5 files).
 
-    The XML is parsed here and the arrays are read with h5py; VTK's own XDMF
-    reader is not used because, in a process that has loaded dolfinx (and
-    with it the system libhdf5), VTK's bundled HDF5 binds to the wrong
+    Reads fricfem's layout (one temporal collection, a grid per snapshot holding
+    every function; :mod:`.fields`) and dolfinx's own (a collection per
+    function).  The XML is parsed here and the arrays are read with h5py; VTK's
+    own XDMF reader is not used because, in a process that has loaded dolfinx
+    (and with it the system libhdf5), VTK's bundled HDF5 binds to the wrong
     symbols and returns a mesh with all points at the origin.
 
-    ``times`` float64[n] [s]; :meth:`grid` returns a pyvista
-    UnstructuredGrid with the function as cell data (cell-centred functions)
-    or point data (nodal ones), named ``name``.
+    ``times`` float64[n] [s] (empty: no snapshot written yet); :meth:`grid`
+    returns a pyvista UnstructuredGrid with the function as cell data
+    (cell-centred functions) or point data (nodal ones), named ``name``.
     """
 
     def __init__(self, path, name: str = "stress_difference"):
@@ -253,29 +248,34 @@ class FieldReader:
 
         self.path = Path(path)
         self.name = name
-        root = ET.parse(self.path).getroot()
-        domain = root.find("Domain")
-        grids = domain.findall("Grid") if domain is not None else []
-        mesh = next((g for g in grids if g.get("GridType", "Uniform") == "Uniform"
-                     and g.find("Topology") is not None), None)
-        if mesh is None:
-            raise ValueError(f"{self.path}: no mesh grid")
-        topo = mesh.find("Topology")
-        kind = topo.get("TopologyType")
-        if kind not in _XDMF_CELLS:
-            raise ValueError(f"{self.path}: cells {kind!r} not supported (allowed {sorted(_XDMF_CELLS)})")
-        self.cell_type = _XDMF_CELLS[kind][0]
-        self._topology = topo.find("DataItem").text.strip()
-        self._geometry = mesh.find("Geometry").find("DataItem").text.strip()
-        series = next((g for g in grids if g.get("GridType") == "Collection" and g.get("Name") == name), None)
-        if series is None:
-            raise KeyError(f"{self.path}: no function {name!r} "
-                           f"(has {[g.get('Name') for g in grids if g.get('GridType') == 'Collection']})")
+        try:
+            root = ET.parse(self.path).getroot()
+        except ET.ParseError as err:
+            raise ValueError(f"{self.path}: not readable as XDMF ({err})") from None
+        grids = list(root.iter("Grid"))
+        mesh = next((g for g in grids if g.find("Topology") is not None
+                     and g.find("Topology").find("DataItem") is not None), None)
+        timed = [g for g in grids if g.find("Time") is not None and g.find("Attribute") is not None]
         steps = []
-        for g in series.findall("Grid"):
-            att = g.find("Attribute")
-            steps.append((float(g.find("Time").get("Value")), att.get("Center", "Node"),
-                          att.find("DataItem").text.strip()))
+        for g in timed:
+            for att in g.findall("Attribute"):
+                if att.get("Name") == name:
+                    steps.append((float(g.find("Time").get("Value")), att.get("Center", "Node"),
+                                  att.find("DataItem").text.strip()))
+        if timed and not steps:
+            names = sorted({a.get("Name") for g in timed for a in g.findall("Attribute")})
+            raise KeyError(f"{self.path}: no function {name!r} (has {names})")
+        if steps and mesh is None:
+            raise ValueError(f"{self.path}: no mesh grid")
+        self.cell_type = None
+        if mesh is not None:
+            topo = mesh.find("Topology")
+            kind = topo.get("TopologyType")
+            if kind not in _XDMF_CELLS:
+                raise ValueError(f"{self.path}: cells {kind!r} not supported (allowed {sorted(_XDMF_CELLS)})")
+            self.cell_type = _XDMF_CELLS[kind][0]
+            self._topology = topo.find("DataItem").text.strip()
+            self._geometry = mesh.find("Geometry").find("DataItem").text.strip()
         steps.sort(key=lambda s: s[0])
         self.times = np.array([s[0] for s in steps])
         self._steps = steps
@@ -320,34 +320,6 @@ class FieldReader:
         return grid
 
 
-def jsonable(o):
-    """Plain Python types for ``json.dumps``: arrays -> lists, numpy scalars ->
-    Python numbers, non-finite floats -> None, objects with ``to_dict``."""
-    if isinstance(o, dict):
-        return {str(k): jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [jsonable(v) for v in o]
-    if hasattr(o, "to_dict"):
-        return jsonable(o.to_dict())
-    if isinstance(o, np.ndarray):
-        return [jsonable(v) for v in o.tolist()]
-    if isinstance(o, (bool, np.bool_)):
-        return bool(o)
-    if isinstance(o, (int, np.integer)):
-        return int(o)
-    if isinstance(o, (float, np.floating)):
-        return float(o) if math.isfinite(o) else None
-    return o
-
-
-def write_summary(rundir, summary: dict) -> None:
-    """Write ``summary.json`` atomically (a temporary file renamed over it)."""
-    rundir = Path(rundir)
-    tmp = rundir / (SUMMARY_FILE + ".tmp")
-    tmp.write_text(json.dumps(jsonable(summary), indent=2))
-    tmp.replace(rundir / SUMMARY_FILE)
-
-
 class Run:
     """A run directory's results as arrays, SI units (``fricfem.open_run``).
 
@@ -355,7 +327,8 @@ class Run:
     as an attribute, float64[n_t, n_p] over the valid rows (``slip_rate``,
     ``shear_traction``, ... and ``state/<θ>`` through :meth:`quantity`), read
     on first use; ``stations`` {name: {"x1", "time", quantity: array}};
-    ``energy`` {name: array}; ``summary`` (summary.json); ``units`` {name: unit}.
+    ``energy`` {name: array}; ``summary`` (summary.json with evidence.json merged
+    in: :func:`read_summary`); ``units`` {name: unit, as the file's ``unit`` attributes}.
     """
 
     def __init__(self, rundir):
@@ -372,11 +345,13 @@ class Run:
             self.stations = {name: {"x1": st.x1, "time": np.asarray(st.time), **st.data}
                              for name, st in itf.stations().items()}
             g = itf.file.get("energy")
-            n = int(_attr(g.attrs, "n", len(g["time"]) if g is not None and "time" in g else 0)) if g else 0
+            n = valid_rows(g["time"], _attr(g.attrs, "n")) if g is not None and "time" in g else 0
             self.energy = {k: np.asarray(g[k][:n], dtype=np.float64) for k in g} if g else {}
+            stored = {name: _attr(itf.file[name].attrs, "unit") for name in self.names}
         from .quantities import ENERGY, unit
 
-        self.units = {"t": "s", "x1": "m", **{name: unit(name) for name in self.names}, **ENERGY}
+        self.units = {"t": "s", "x1": "m", **{name: stored[name] if stored[name] is not None else unit(name)
+                                               for name in self.names}, **ENERGY}
         self._cache = {}
 
     def quantity(self, name: str) -> np.ndarray:

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.lines import Line2D
 
+from ..output.regions import region_spans
 from ..output.rundir import RunInfo, open_interface, run_info, sliding_sign
 from .common import PLOTTED, SIGNED, color_axis, figure, label, markers, panel_letter, save, stress_unit, time_styles
 
@@ -59,6 +60,7 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
             tops.append(_twin_panel(axes[2], x, sign, q, "normal_traction", "mu_app", mk))
             _slip_panel(axes[3], x, sign, q, mk)
             tops.append(axes[3])
+        _draw_regions(axes, region_spans(itf.file, itf.x1), xlim)
         c_l = info.speeds.get("c_l")
         for k, a in enumerate(axes):
             panel_letter(tops[k], k)  # on the twin axes, which are drawn over the host's lines
@@ -77,6 +79,20 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
         fig.suptitle(f"{info.title()}\ninterface at t = {when} µs{later}", fontsize=10)
         fig.tight_layout()
         return save(fig, path)
+
+
+def _draw_regions(axes, spans, xlim) -> None:
+    """Shade each friction region (``friction.regions[k]``, from interface.h5) on every
+    panel and name it R<k> above the first, with its parameter overrides."""
+    for k, xa, xb, params in spans:
+        if xb < xlim[0] or xa > xlim[1]:
+            continue
+        for a in axes:
+            a.axvspan(xa * 1e3, xb * 1e3, color="C2", alpha=0.12, lw=0, zorder=0)
+        text = ", ".join(f"{n} = {v:g}" for n, v in params.items())
+        middle = 0.5 * (max(xa, xlim[0]) + min(xb, xlim[1])) * 1e3
+        axes[0].text(middle, 0.98, f"R{k}" + (f"\n{text}" if text else ""), transform=axes[0].get_xaxis_transform(),
+                     ha="center", va="top", fontsize=7, color="C2")
 
 
 def _twin_panel(ax, x, sign, q, left: str, right: str, mk):

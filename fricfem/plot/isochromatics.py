@@ -14,8 +14,9 @@ from matplotlib.lines import Line2D
 from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, log, time_tag
 from .common import DPI, save
 
-#: Homalite-100: stress-optic constant f_σ [N/m] and specimen thickness [m] (the experiments'),
-#: for isochromatic fringe orders N = (σ1 − σ2) h / f_σ.
+#: Defaults of the fringe order N = (σ1 − σ2) h / f_σ (a scene's ``output.f_sigma``, ``output.thickness``):
+#: the stress-optic constant commonly quoted for Homalite-100 [N/m] (the paper gives none: docs/model.md §10)
+#: and the paper's specimen thickness [m].
 F_SIGMA = 22.6e3
 THICKNESS = 9.525e-3
 

@@ -27,11 +27,13 @@ import sys
 from pathlib import Path
 
 from ..output.quantities import FIELDS_FILE, INTERFACE_FILE
-from ..output.rundir import InterfaceFile, RunInfo, pyvista_module, default_times, log, open_interface, read_summary, \
+from ..output.recorder import h5_error
+from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, default_times, log, open_interface, read_summary, \
     run_info, sliding_sign, time_tag
 from ..analysis.tip import tip_record
 from .interface import interface_distributions
-from .isochromatics import isochromatics
+from .frames import frame_series
+from .isochromatics import F_SIGMA, THICKNESS, isochromatics
 from .spacetime import spacetime
 from .station import station_history
 from .tip import tip_speed
@@ -56,7 +58,10 @@ def plot_run(rundir, times=None, out=None) -> list[Path]:
     written: list[Path] = []
     h5path = rundir / INTERFACE_FILE
     with contextlib.ExitStack() as stack:
-        itf = stack.enter_context(open_interface(h5path)) if h5path.is_file() else None
+        try:
+            itf = stack.enter_context(open_interface(h5path)) if h5path.is_file() else None
+        except (OSError, KeyError) as err:  # not HDF5, or not fricfem's layout
+            raise ValueError(f"{h5path}: not readable as a run's interface.h5 ({h5_reason(err)})") from None
         info = run_info(rundir, interface=itf, summary=summary)
         if itf is None:
             log.warning("%s: absent; interface figures skipped", h5path)
@@ -99,7 +104,29 @@ def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf) ->
     if pyvista_module() is None:
         log.warning("pyvista is not installed; isochromatics skipped")
         return []
-    return isochromatics(fields, out, times=times, info=info, itf=itf)
+    try:  # a run killed or stopped before its first snapshot lists none
+        if len(FieldReader(fields).times) == 0:
+            log.warning("%s: no snapshot written yet; isochromatics skipped", fields)
+            return []
+    except (OSError, ValueError, KeyError) as err:
+        log.warning("%s: not readable (%s); isochromatics skipped", fields, err)
+        return []
+    # the scene's specimen thickness and fringe constant; its camera frames as one series
+    photo = read_summary(rundir).get("photoelastic") or {}
+    optics = {"thickness": photo.get("thickness_m") or THICKNESS, "f_sigma": photo.get("f_sigma_N_per_m") or F_SIGMA}
+    written = isochromatics(fields, out, times=times, info=info, itf=itf, **optics)
+    if photo.get("frames_s"):
+        series = frame_series(fields, out / "isochromatics_frames.png", photo["frames_s"], info=info, itf=itf, **optics)
+        written += [series] if series else []
+    return written
+
+
+def h5_reason(err: Exception) -> str:
+    """The short reason of an h5py error."""
+    if isinstance(err, OSError):
+        e = h5_error(err, "")
+        return e.strerror or str(err)
+    return str(err)
 
 
 def _mpi_rank() -> int:
@@ -131,7 +158,10 @@ def main(argv=None) -> int:
     try:
         paths = plot_run(args.rundir, times=times, out=args.out)
     except (FileNotFoundError, ValueError, KeyError) as err:
-        print(f"fricfem plot: error: {err}", file=sys.stderr)
+        print(f"fricfem plot: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return 2
+    except OSError as err:  # the file system: the figure folder not writable, no space, ...
+        print(f"fricfem plot: error: {err.filename or args.rundir}: {err.strerror or err}", file=sys.stderr)
         return 2
     for p in paths:
         print(p)

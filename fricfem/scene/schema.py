@@ -3,8 +3,9 @@ allowed range and meaning — one table (:data:`SCHEMA`).
 
 Keys that belong to a model dataclass are declared once, on its fields
 (:func:`fricfem.keys.field`): the mesh (:class:`~fricfem.model.mesh.MeshSpec`),
-the material (:class:`~fricfem.model.material.Material`) and the impact pulse
-(:class:`~fricfem.model.loading.ImpactPulse`).  Friction parameters are the
+the material (:class:`~fricfem.model.material.Material`), the impact pulse
+(:class:`~fricfem.model.loading.ImpactPulse`) and the experiment's steel bodies
+(:class:`~fricfem.model.bodies.Experiment`).  Friction parameters are the
 law's own (:class:`fricfem.friction.Param`).  All values are SI.
 """
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 from .. import friction
 from ..keys import NUM, Key, keys_of
 from ..model.grid import INTERFACE_KINDS, OUTER
+from ..model.bodies import Experiment
 from ..model.loading import ImpactPulse
 from ..model.material import Material
 from ..model.mesh import MeshSpec
@@ -61,6 +63,8 @@ SCHEMA = {
                                             "others are traction-free")},
     "material": keys_of(Material),
     "loading": _loading_keys(),
+    # the paper's experiment: steel buffer bonded to the struck edge, steel projectile (fricfem.model.bodies)
+    "experiment": keys_of(Experiment),
     "interface": {
         "kind": Key(str, "elastic", doc="'elastic' (the paper's: springs C_n, C_s at the Gauss points) or "
                                         "'rigid' (split-node pairs, no spring: the traction from the pairs' "
@@ -77,6 +81,17 @@ SCHEMA = {
         "params": Key(dict, {}, doc="law parameters (friction.params.<name>, below)"),
         "regions": Key(list, [], doc="[{x1_min, x1_max, params}] piecewise-constant overrides; they may not "
                                      "overlap and each holds an interface point"),
+        "profiles": Key(dict, {}, doc="parameter name -> [[x1, value], ...]: the parameter piecewise-linear "
+                                      "along x1 through these knots (x1 strictly increasing on the plate, at "
+                                      "least 2, values in the parameter's range; constant beyond the first and "
+                                      "last knot); replaces friction.params.<name> everywhere, and a parameter "
+                                      "with a profile may not be set in friction.regions"),
+        "initial_state": Key(str, "local", doc="the shear traction each point's initial friction state is set "
+                                               "from: 'local' (its own initial traction, interface.patches "
+                                               "included) or 'background' (interface.tau0 everywhere, so a patch "
+                                               "starts away from the state its traction would give: nucleation "
+                                               "by overstress, as SCEC TPV101-102 and SEM2DPACK)",
+                             choices=("local", "background")),
     },
     "time": {
         "end": Key(NUM, 40e-6, "s", 0.0, 1.0, "end time (at least one step)", open_low=True),
@@ -91,10 +106,19 @@ SCHEMA = {
                                           "to computing every row; false: compute every row)"),
     },
     "watchdog": {
-        "enabled": Key(bool, True, doc="stop a diverging run with a message"),
+        "enabled": Key(bool, True, doc="stop a diverging run with a message: non-finite interface values or "
+                                       "energies, a negative discrete kinetic energy, or an energy budget that "
+                                       "does not close (docs/model.md, \"The watchdog\")"),
         "max_slip_rate": Key(NUM, 0.0, "m/s", 0.0, 1e9,
-                             "slip rates beyond this are taken as divergence (0: the material's c_l)"),
-        "energy_factor": Key(NUM, 1.5, "", 1.0, 1e6, "stop when stored energy exceeds this × the input work",
+                             "report threshold of slip-rate spikes (0: the material's c_l): a slip rate above it "
+                             "is reported with its peak, place and time in summary.json (slip_rate_spike) and on "
+                             "the progress line, never a stop — such peaks are genuine at strong loading "
+                             "(docs/friction_reference.md §4)"),
+        "energy_tol": Key(NUM, 1e-6, "", 0.0, 1.0,
+                          "stop when the energy balance error, or a negative kinetic energy, exceeds this × the "
+                          "energy scale (the budget closes to round-off, ≤ 2.1e-13 measured)", open_low=True),
+        "energy_factor": Key(NUM, 1.5, "", 1.0, 1e6, "older form of the energy bound, kept so that older scenes "
+                                                     "load: the bound is min(energy_tol, energy_factor − 1)",
                              open_low=True),
     },
     "output": {
@@ -108,6 +132,21 @@ SCHEMA = {
         "energy_every": Key(int, 50, "steps", 0, 10**9, "energy evaluation cadence (0: never)"),
         "flush_every": Key(NUM, 2.0, "s", 0.0, 1e6, "wall-clock seconds between flushes", open_low=True),
         "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
+        # gauges, frames and the photoelastic constants: fricfem/scene/output_keys.py checks them
+        "gauges": Key(dict, {}, "m", doc="gauge name -> [x1, x2] inside a plate (x2 != 0: not on the interface): "
+                                         "velocity, strain and sigma1 - sigma2 there every output.gauges_every "
+                                         "steps, into gauges.h5; names as stations'; tables merge key by key, so "
+                                         "a scene's gauges add to its base's"),
+        "gauges_every": Key(int, 1, "steps", 1, 10**6, "gauge cadence"),
+        "frames": Key((list, dict), [], "s", doc="isochromatic frames, as a camera takes them: a list of times, "
+                                                 "or {start, interval, count}; each in (0, time.end], written "
+                                                 "as a field snapshot at its nearest step and drawn by fricfem "
+                                                 "plot as a frame series"),
+        "thickness": Key(NUM, 9.525e-3, "m", 0.0, 1.0, "specimen thickness h of the fringe order N = "
+                                                        "(sigma1 - sigma2) h / f_sigma (figures only: the model "
+                                                        "is two-dimensional)", open_low=True),
+        "f_sigma": Key(NUM, 22.6e3, "N/m", 0.0, 1e9, "stress-optic (fringe) constant f_sigma of the specimen "
+                                                     "(Homalite-100: 22.6 kN/m)", open_low=True),
     },
 }
 

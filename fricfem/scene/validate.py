@@ -12,6 +12,8 @@ and what is allowed.  The rules between keys (docs/scenes.md):
 * friction: μs > 0 and μs >= μd, C + D > 0 (laws with those parameters), every
   slip distance shorter than the plate; ``friction.regions`` and
   ``interface.patches`` do not overlap and each holds an interface Gauss point;
+  ``friction.profiles``: knots sorted on the plate, values in range, the rules
+  above at every knot, a profiled parameter not also in a region;
 * time: at least one step before ``time.end``; a fixed ``time.dt`` not above
   the stable step unless ``time.allow_unstable_dt``; ``time.stop_at_tip`` on
   the plate;
@@ -30,13 +32,16 @@ import math
 import re
 from typing import NamedTuple
 
+import numpy as np
+
 from .. import friction
 from ..keys import NUM, Key, keys_of
+from ..model import bodies
 from ..model import mesh as mesh_mod
 from ..model.grid import OUTER
 from ..model.loading import ImpactPulse
 from ..model.material import Material
-from . import cost
+from . import cost, output_keys
 from .load import read_toml
 from .schema import SCHEMA, SceneError, shown
 
@@ -84,6 +89,9 @@ class Scene(NamedTuple):
     warnings: tuple = ()  # one line each: scale checks that did not refuse the scene
     interface_kind: str = "elastic"  # model.grid.INTERFACE_KINDS
     absorbing: tuple = ()  # outer edges with dashpots (model.grid.OUTER)
+    profiles: tuple = ()  # ((parameter name, ((x1, value), ...)), ...): piecewise-linear along x1
+    initial_state: str = "local"  # the traction the initial friction state comes from: 'local' or 'background'
+    experiment: object = None  # the experiment's steel bodies (fricfem.model.bodies.Experiment), or None
 
 
 def check_identifier(where: str, v, max_len: int) -> str:
@@ -109,7 +117,9 @@ def check_value(where: str, k: Key, v):
             raise SceneError(f"{where} = {shown(v)}: expected a whole number [{k.unit}] ({k.doc})")
     elif not isinstance(v, k.kind):
         names = {str: "a string", bool: "true or false", list: "a list", dict: "a table"}
-        raise SceneError(f"{where} = {shown(v)}: expected {names.get(k.kind, k.kind)} ({k.doc})")
+        kinds = k.kind if isinstance(k.kind, tuple) else (k.kind,)
+        raise SceneError(f"{where} = {shown(v)}: expected {' or '.join(names.get(t, str(t)) for t in kinds)} "
+                         f"({k.doc})")
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         lo_bad = k.low is not None and (v <= k.low if k.open_low else v < k.low)
         hi_bad = k.high is not None and (v >= k.high if k.open_high else v > k.high)
@@ -285,6 +295,55 @@ def _friction(fr: dict, length: float, x1) -> tuple:
     return fr["law"], params, regions
 
 
+def _knots(where: str, knots, par, length: float) -> tuple:
+    """One checked profile: at least two [x1, value] pairs, x1 strictly increasing on
+    the plate, every value finite and in the parameter's range."""
+    if not isinstance(knots, list) or len(knots) < 2:
+        raise SceneError(f"{where} = {shown(knots)}: expected a list of at least 2 knots [x1, value] "
+                         f"(x1 in m, the value in {par.unit or 'no unit'})")
+    rng = Key(NUM, par.default, par.unit, par.low, par.high, par.doc)
+    out = []
+    for i, kn in enumerate(knots):
+        if not isinstance(kn, list) or len(kn) != 2:
+            raise SceneError(f"{where}[{i}] = {shown(kn)}: expected a knot [x1, value]")
+        x = check_value(f"{where}[{i}][0]", Key(NUM, 0.0, "m", 0.0, length, "knot position along the interface"),
+                        kn[0])
+        v = check_value(f"{where}[{i}][1]", rng, kn[1])
+        if out and not x > out[-1][0]:
+            raise SceneError(f"{where}[{i}][0] = {x!r} m: knots must be sorted by x1, strictly increasing (the "
+                             f"previous knot is at {out[-1][0]!r} m)")
+        out.append((float(x), float(v)))
+    return tuple(out)
+
+
+def _profiles(fr: dict, params: dict, regions: tuple, length: float) -> tuple:
+    """The checked ``friction.profiles``: ((name, knots), ...).  A profiled parameter
+    is not set in a region; the rules between parameters hold at every knot (they are
+    linear in each parameter, so they then hold between knots too), with the
+    scene's parameters and with each region's."""
+    law = friction.get_law(fr["law"])
+    known = {p.name: p for p in law.params}
+    table = fr["profiles"]
+    out = []
+    for name, knots in table.items():
+        if name not in known:
+            raise SceneError(f"friction.profiles.{name}: unknown parameter for friction law '{law.name}'; "
+                             f"allowed: {', '.join(known)}")
+        for i, reg in enumerate(regions):
+            if name in reg["params"]:
+                raise SceneError(f"friction.profiles.{name} and friction.regions[{i}].params.{name} both set "
+                                 f"{name}; give it in one of them")
+        out.append((name, _knots(f"friction.profiles.{name}", knots, known[name], length)))
+    xs = sorted({x for _, kn in out for x, _ in kn})
+    for x in xs:
+        at = {name: float(np.interp(x, [k[0] for k in kn], [k[1] for k in kn])) for name, kn in out}
+        for where, base in [("friction.params", params)] + [(f"friction.regions[{i}].params", {**params,
+                                                                                             **reg["params"]})
+                                                            for i, reg in enumerate(regions)]:
+            _law_rules(f"friction.profiles at x1 = {x:g} m with {where}", {**base, **at}, length)
+    return tuple(out)
+
+
 def _scale_warnings(law: str, p: dict, spec, mat: Material, sigma0: float) -> list:
     """Warnings when a length of the law is out of scale with the plate or the cells (docs/scenes.md)."""
     out = []
@@ -349,6 +408,7 @@ def _time_rules(sc: Scene) -> None:
             if not 1 <= round(t / sc.dt) <= n_end:
                 raise SceneError(f"output.fields[{i}] = {t!r} s rounds to step {round(t / sc.dt)} of time.dt = "
                                  f"{sc.dt!r} s, outside the run's steps 1 … {n_end}")
+    output_keys.check(sc, est.dt_high)  # output.gauges, output.frames
 
 
 def validate(raw: dict) -> Scene:
@@ -368,7 +428,19 @@ def validate(raw: dict) -> Scene:
     if len(top["description"]) > 2000:
         raise SceneError(f"description: {len(top['description'])} characters; at most 2000")
     sec = {name: _section(raw, name) for name in SCHEMA if name}
-    spec = mesh_spec(sec["mesh"])
+    if sec["experiment"]["projectile_speed"] > 0:  # the grid line at the projectile's lower edge
+        if sec["mesh"]["impact_b"] is not None:
+            raise SceneError(f"mesh.impact_b = {sec['mesh']['impact_b']!r} m: with an [experiment] the grid line "
+                             "at the projectile's lower edge comes from experiment.projectile_diameter; remove it")
+        sec["mesh"]["impact_b"] = sec["experiment"]["projectile_diameter"]
+    try:
+        spec = mesh_spec(sec["mesh"])
+    except SceneError as err:
+        if sec["experiment"]["projectile_speed"] > 0 and str(err).startswith("mesh.impact_b"):
+            raise SceneError(f"experiment.projectile_diameter = {sec['experiment']['projectile_diameter']!r} m: "
+                             "must not exceed the plate height mesh.height (it strikes the buffer below the "
+                             "interface)") from None
+        raise
     grid_x1 = cost.axes(spec)[0]  # the interface points: node pairs (rigid) or 4 Gauss points a segment
     x1 = grid_x1 if sec["interface"]["kind"] == "rigid" else cost.gauss_x1(grid_x1)
     mat = Material(**{k: (float(v) if k != "plane" else v) for k, v in sec["material"].items()})
@@ -377,7 +449,13 @@ def validate(raw: dict) -> Scene:
         raise SceneError(f"loading.t_hold_end = {ld['t_hold_end']!r} s: must be >= t_rise = {ld['t_rise']!r} s")
     pulse = ImpactPulse(float(ld["v_imp"]), float(ld["t_rise"]), float(ld["t_hold_end"]), float(ld["t_fall"]),
                         ld["direction"], ld["kind"], float(ld["impedance"]))
+    try:
+        experiment, spec = bodies.from_section(sec["experiment"], raw.get("experiment", {}), spec,
+                                               float(ld["v_imp"]), ld["symmetric"])
+    except ValueError as err:
+        raise SceneError(str(err)) from None
     law, params, regions = _friction(sec["friction"], spec.length, x1)
+    profiles = _profiles(sec["friction"], params, regions, spec.length)
     itf = sec["interface"]
     patches = _x1_ranges("interface.patches", itf["patches"], spec.length, ("x1_min", "x1_max", "tau0"), x1)
     for i, p in enumerate(patches):
@@ -410,7 +488,8 @@ def validate(raw: dict) -> Scene:
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
         stop_at_tip=float(tm["stop_at_tip"]), allow_unstable_dt=tm["allow_unstable_dt"],
         skip_quiet=tm["skip_quiet"], output=out, watchdog=sec["watchdog"], raw=raw,
-        interface_kind=itf["kind"], absorbing=absorbing,
+        interface_kind=itf["kind"], absorbing=absorbing, profiles=profiles,
+        initial_state=sec["friction"]["initial_state"], experiment=experiment,
     )
     _time_rules(scene)
     return scene._replace(warnings=tuple(_scale_warnings(law, params, spec, mat, scene.sigma0)))

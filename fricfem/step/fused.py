@@ -54,6 +54,7 @@ whose one verb :meth:`FusedBulk.advance` moves a :class:`fricfem.step.state.Stat
 
 from __future__ import annotations
 
+import copy
 import time
 from typing import NamedTuple
 
@@ -167,6 +168,15 @@ def special_nodes(rows: BlockRows, impact_dofs: np.ndarray, iface_nodes: np.ndar
     return Special(np.append(node, n_nodes).astype(np.int32), impact, deferred, preloaded, damped)
 
 
+def _edge(impact) -> tuple:
+    """The struck edge's arrays for the kernels: (masses, traction force and damping
+    coefficients; the last two empty for a prescribed velocity)."""
+    traction = not impact.pulse.prescribed and len(impact.force) == len(impact.dofs)
+    return (np.ascontiguousarray(impact.mass, dtype=np.float64),
+            np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64),
+            np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
+
+
 class FusedBulk:
     """The fused step of one model: built once, one verb (:meth:`advance`).
 
@@ -204,10 +214,8 @@ class FusedBulk:
         self.dt_minv = dt_minv[0::2].copy()  # per node: both components carry the same mass
         self.interface = interface
         self.pulse = impact.pulse
-        traction = not impact.pulse.prescribed and len(impact.force) == len(impact.dofs)
-        self.edge = (np.ascontiguousarray(impact.mass, dtype=np.float64),
-                     np.ascontiguousarray(impact.force if traction else np.zeros(0), dtype=np.float64),
-                     np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
+        self.edge = _edge(impact)
+        self.impact_dofs = np.asarray(impact.dofs).copy()
         self.rows = rows
         self.damped_nodes = np.asarray(dashpots[0], dtype=np.int64)
         self.damping = np.ascontiguousarray(dashpots[1], dtype=np.float64).reshape(-1, 2)
@@ -232,6 +240,23 @@ class FusedBulk:
             is_from = PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF)
             self.ghost_scatter = PETSc.Scatter().create(template, is_from, self.ghost_vec, None)
             self.ug = self.ghost_vec.array
+
+    def rebind(self, interface, impact) -> "FusedBulk":
+        """The same step for another scene on the same mesh, interface geometry and
+        struck edge (the interface's points and law, the load): a copy that shares
+        K's rows, the special rows, the scatters and the scratch buffers with this one
+        (:mod:`fricfem.model.reuse`; the two must not step at the same time).  Not
+        collective."""
+        if not np.array_equal(np.asarray(impact.dofs), self.impact_dofs):
+            raise ValueError("fused: rebind needs the same struck-edge dofs (the special rows depend on them)")
+        if (interface is None) != (self.interface is None) or (
+                interface is not None and interface.geometry is not self.interface.geometry):
+            raise ValueError("fused: rebind needs the same interface geometry (its scatters are shared)")
+        new = copy.copy(self)
+        new.interface = interface
+        new.pulse = impact.pulse
+        new.edge = _edge(impact)
+        return new
 
     def activity(self, at_rest: bool) -> np.ndarray:
         """A fresh activity array (int8[n_nodes]) for a state: at rest, only the

@@ -1,0 +1,179 @@
+"""Tables and work–precision figures of ``peer_score.json`` (written by score.py):
+``peer_score.md`` and ``peer_<problem>.png``.
+
+    .venv/bin/python benchmarks/peer/report.py     # redraw from the committed JSON
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE.parents[1] / "benchmarks" / "results"
+METRICS = (("t_r_pct", "worst |Δt_r| [% of t_r]"), ("slip_pct", "worst |Δ final slip| [%]"),
+           ("v_peak_pct", "worst |Δ peak slip rate| [%]"))
+GOAL_CPU = 0.5  # fricfem reaches the peer's accuracy at <= this fraction of its CPU
+GOAL_RIGID = 0.5  # % worst rupture-time error of the rigid kind
+
+
+def series(runs: dict, kind: str) -> list:
+    """The runs of one kind, coarsest first: [(h, record)]."""
+    return sorted(((r["h_m"], r) for r in runs.values() if r["kind"] == kind), key=lambda t: -t[0])
+
+
+def cpu_to_reach(points, err: float, metric: str):
+    """CPU seconds a fricfem ladder needs to reach error ``err`` (log–log interpolation
+    between its runs): (cpu, how) with how 'interpolated', 'at most' (its cheapest run
+    is already as accurate) or None (not reached on the ladder)."""
+    pts = sorted((r["cpu_s"], r[metric]) for _, r in points)
+    best = None
+    for c, e in pts:
+        if e <= err:
+            best = c if best is None else min(best, c)
+    if best is None:
+        return None, None
+    # interpolate between the last run above err and the first below it, in cost order
+    for (c0, e0), (c1, e1) in zip(pts, pts[1:]):
+        if e0 > err >= e1 and e1 > 0:
+            f = math.log(e0 / err) / math.log(e0 / e1)
+            return math.exp(math.log(c0) + f * math.log(c1 / c0)), "interpolated"
+    return best, ("at most" if best == pts[0][0] else "interpolated")
+
+
+def _fmt(v, d=3):
+    return "—" if v is None else (f"{v:.{d}f}" if abs(v) < 1e4 else f"{v:.3g}")
+
+
+def problem_md(name: str, prob: dict) -> list:
+    L = [f"## {name}", "", "| run | CPU [s] | size | worst Δt_r [µs] | worst Δt_r [%] | rms Δt_r [%] | "
+         "worst Δslip [%] | worst ΔV_peak [%] |", "|---|---|---|---|---|---|---|---|"]
+    for label, r in prob["peer"].items():
+        L.append(f"| SEM2DPACK {label} | {r['cpu_s']:.1f} | | {r['t_r_us']:.3f} | {r['t_r_pct']:.2f} | "
+                 f"{r['t_r_rms_pct']:.2f} | {r['slip_pct']:.2f} | {r['v_peak_pct']:.1f} |")
+    for tag, t in prob["fricfem"].items():
+        for kind in ("rigid", "elastic"):
+            for h, r in series(t["runs"], kind):
+                L.append(f"| fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind} h = {h * 1e3:g} mm | "
+                         f"{r['cpu_s']:.1f} | {r['dofs']:,} dofs, {r['steps']} steps | {r['t_r_us']:.3f} | "
+                         f"{r['t_r_pct']:.2f} | {r['t_r_rms_pct']:.2f} | {r['slip_pct']:.2f} | "
+                         f"{r['v_peak_pct']:.1f} |")
+    L += ["", "CPU: fricfem, user + system of the whole run summed over its ranks "
+          f"({_ranks(prob)} ranks); SEM2DPACK, user + system of its serial run.", ""]
+    L += goal_md(prob)
+    L += stations_md(prob)
+    return L
+
+
+def _ranks(prob):
+    return ", ".join(sorted({str(r["ranks"]) for t in prob["fricfem"].values() for r in t["runs"].values()}))
+
+
+def goal_md(prob: dict) -> list:
+    L = ["### Against the goal", "", f"CPU fricfem needs to reach each peer run's accuracy (log–log interpolation "
+         f"along its ladder), as a fraction of the peer's CPU (goal ≤ {GOAL_CPU}); and the rigid kind's worst "
+         f"rupture-time error (goal ≤ {GOAL_RIGID} %).", ""]
+    for tag, t in prob["fricfem"].items():
+        for kind in ("rigid", "elastic"):
+            pts = series(t["runs"], kind)
+            if not pts:
+                continue
+            for metric, what in METRICS[:2]:
+                cells = []
+                for label, p in prob["peer"].items():
+                    c, how = cpu_to_reach(pts, p[metric], metric)
+                    cells.append(f"{label} ({p[metric]:.2f} %): " + ("not reached" if c is None else
+                                 f"{'≤ ' if how == 'at most' else ''}{c / p['cpu_s']:.2f}×"))
+                L.append(f"- fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind}, {what}: " + "; ".join(cells))
+            if kind == "rigid":
+                ok = [f"h = {h * 1e3:g} mm: {r['t_r_pct']:.2f} %" for h, r in pts]
+                L.append(f"- fricfem{'' if tag == 'tree' else f' [{tag}]'} rigid worst Δt_r: " + ", ".join(ok))
+    return L + [""]
+
+
+def stations_md(prob: dict) -> list:
+    """Per-station table of each tag's finest rigid and elastic runs."""
+    L = []
+    for tag, t in prob["fricfem"].items():
+        for kind in ("rigid", "elastic"):
+            pts = series(t["runs"], kind)
+            if not pts:
+                continue
+            h, r = pts[-1]
+            L += [f"### Stations: fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind}, h = {h * 1e3:g} mm", "",
+                  "| x [mm] | t_r [µs] | peer t_r [µs] | Δt_r [µs] | V_peak [m/s] | peer | ΔV_peak [%] | slip [µm] | "
+                  "peer | Δslip [%] |", "|---|---|---|---|---|---|---|---|---|---|"]
+            for s in r["stations"]:
+                tr = None if s["t_r_s"] is None else 1e6 * s["t_r_s"]
+                trr = None if s["t_r_ref_s"] is None else 1e6 * s["t_r_ref_s"]
+                L.append(f"| {s['x_mm']} | {_fmt(tr)} | {_fmt(trr)} | {_fmt(s.get('dt_r_us'))} | "
+                         f"{s['v_peak']:.3g} | {s['v_peak_ref']:.3g} | {_fmt(s.get('dv_peak_pct'), 1)} | "
+                         f"{1e6 * s['slip_m']:.3f} | {1e6 * s['slip_ref_m']:.3f} | {_fmt(s.get('dslip_pct'), 2)} |")
+            L.append("")
+    return L
+
+
+def figure(name: str, prob: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    for ax, (metric, what) in zip(axes, METRICS):
+        for degree, style in (("h", "o-"), ("p8", "s")):
+            pts = [(p["cpu_s"], p[metric], lab) for lab, p in prob["peer"].items() if lab.startswith(degree)]
+            if pts:
+                c, e, labs = zip(*pts)
+                ax.plot(c, e, style, color="0.3", label=f"SEM2DPACK degree {'4' if degree == 'h' else '8'}")
+                for ci, ei, lab in pts:
+                    ax.annotate(lab, (ci, ei), fontsize=7, color="0.3", xytext=(3, 3), textcoords="offset points")
+        for tag, t in prob["fricfem"].items():
+            for kind, color in (("rigid", "C0"), ("elastic", "C1")):
+                pts = series(t["runs"], kind)
+                if not pts:
+                    continue
+                c = [r["cpu_s"] for _, r in pts]
+                e = [max(r[metric], 1e-3) for _, r in pts]
+                filled = tag == "tree"
+                ax.plot(c, e, marker="^" if kind == "rigid" else "v", color=color, mfc=color if filled else "none",
+                        ls="-" if filled else "--", label=f"fricfem {kind}" + ("" if filled else f" [{tag}]"))
+                for (h, _), ci, ei in zip(pts, c, e):
+                    ax.annotate(f"{h * 1e3:g}", (ci, ei), fontsize=7, color=color, xytext=(3, -9),
+                                textcoords="offset points")
+        if metric == "t_r_pct":
+            ax.axhline(GOAL_RIGID, color="C2", lw=0.8, ls=":", label=f"{GOAL_RIGID} % (goal, rigid)")
+        ax.set(xscale="log", yscale="log", xlabel="CPU seconds (user + system, all ranks)", ylabel=what)
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"{name}: error against SEM2DPACK {prob.get('reference', 'p8_h0.0625mm')} versus CPU "
+                 "(fricfem labels: band cell size h in mm)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write(doc: dict, out: Path = RESULTS) -> None:
+    L = ["# fricfem against SEM2DPACK (code-to-code)", "",
+         "`.venv/bin/python benchmarks/peer/score.py` (method and definitions: its header; the problems: "
+         "benchmarks/peer/README.md, fricfem/scenes/tpv205_2d.toml, rsf_aging_2d.toml).  Reference: the peer's "
+         f"finest run `{doc['reference']}`; rupture time = first slip rate > {doc['threshold_m_s']:g} m/s "
+         f"(stations with t_r > {doc['t_r_min_s'] * 1e6:g} µs); slip and peak rate over the stations that slip.  "
+         f"{doc['machine']}, {doc['date']}.", ""]
+    for tag in sorted({tg for p in doc["problems"].values() for tg in p["fricfem"]}):
+        note = next(p["fricfem"][tag]["note"] for p in doc["problems"].values() if tag in p["fricfem"])
+        L.append(f"- `{tag}`: {note}")
+    L.append("")
+    for name, prob in doc["problems"].items():
+        L += problem_md(name, prob)
+        figure(name, prob, out / f"peer_{name}.png")
+        L += [f"![{name}](peer_{name}.png)", ""]
+    (out / "peer_score.md").write_text("\n".join(L) + "\n")
+
+
+if __name__ == "__main__":
+    src = Path(sys.argv[1]) if len(sys.argv) > 1 else RESULTS / "peer_score.json"
+    write(json.loads(src.read_text()), src.parent)
+    print(f"wrote {src.parent / 'peer_score.md'}")

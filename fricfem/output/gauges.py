@@ -1,0 +1,333 @@
+"""Gauges: point histories inside the plates (``output.gauges``) → ``gauges.h5``.
+
+A gauge at (x1, x2) records, every ``output.gauges_every`` steps, what a
+strain gauge, a vibrometer or a photoelastic reading there would see:
+
+- ``displacement`` [m] and ``velocity`` [m/s] (x1, x2 components), the linear
+  interpolation of the nodal values in the triangle that holds the point;
+- ``strain`` (ε11, ε22, ε12; ε12 the tensor component) and ``stress`` [Pa]
+  (σ11, σ22, σ12, the prestress S22 = −Σ0, S12 = τ0 included) of that
+  triangle (piecewise constant in linear triangles);
+- ``stress_difference`` σ1 − σ2 [Pa], as in the field output.
+
+Displacement, strain and stress hold at ``time`` (t^n); the central-difference
+velocity is v^{n−½}, at ``velocity_time`` = time − dt/2.
+
+How it is computed.  Each gauge's triangle, its three grid nodes, their linear
+weights N_i(x) and gradients ∇N_i are found once (:func:`locate`, on the
+grid every rank rebuilds).  At a sample each rank copies the values of the
+nodes it owns into a small array [gauges, 3, 4] (zeros elsewhere) and one
+reduction brings it to rank 0 — every entry has exactly one owner, so the
+sum is exact; rank 0 keeps it, and evaluates the samples of a flush together,
+vectorized over samples and gauges.  So the histories are bit-identical on
+any number of ranks, and there is no Python loop over gauges in the time
+loop.
+
+File layout (``gauges.h5``, SI, every dataset with a ``unit`` attribute):
+``gauge/name`` [n_g], ``gauge/position`` [n_g, 2] (as asked) and
+``gauge/triangle`` [n_g, 3, 2] (the triangle's vertices); ``time`` and
+``velocity_time`` [n_t]; ``displacement``, ``velocity`` [n_t, n_g, 2];
+``strain``, ``stress`` [n_t, n_g, 3]; ``stress_difference`` [n_t, n_g].  The
+valid rows are the leading rows whose time is finite (:class:`GaugeWriter`
+says how the file survives a kill).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+GAUGES_FILE = "gauges.h5"
+
+#: dataset -> (unit, component names, meaning); per-gauge histories, in file order.
+QUANTITIES = {
+    "displacement": ("m", ("u1", "u2"), "displacement u at time"),
+    "velocity": ("m/s", ("v1", "v2"), "velocity v at velocity_time = time - dt/2 (central differences)"),
+    "strain": ("", ("e11", "e22", "e12"), "infinitesimal strain of the triangle holding the gauge, at time"),
+    "stress": ("Pa", ("s11", "s22", "s12"), "in-plane stress of that triangle, prestress included, at time"),
+    "stress_difference": ("Pa", (), "sigma1 - sigma2 (prestress included), at time"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Located:
+    """Where the gauges are in the grid (the same on every rank).
+
+    triangle  int64[n, 3]      grid nodes of the triangle holding each gauge
+    weights   float64[n, 3]    N_i(x) of those nodes at the gauge (sum 1)
+    grads     float64[n, 3, 2] ∇N_i [1/m]
+    vertices  float64[n, 3, 2] the triangle's vertices [m]
+    """
+
+    triangle: np.ndarray
+    weights: np.ndarray
+    grads: np.ndarray
+    vertices: np.ndarray
+
+
+def locate(x: np.ndarray, cells: np.ndarray, points: np.ndarray) -> Located:
+    """The triangle of ``cells`` (grid nodes ``x``) holding each point [m], in the
+    plate of the point's x2 sign (the interface's two node rows coincide, so a
+    triangle of the other plate may touch it); the lowest-numbered triangle
+    when a point lies on an edge.  Raises ValueError for a point on no plate.
+    Setup only: one vectorized pass over the triangles per point."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    p = x[cells]  # [n_cells, 3, 2]
+    lo, hi = p.min(axis=1), p.max(axis=1)
+    upper = p[:, :, 1].mean(axis=1) > 0.0
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    found = np.zeros(len(points), dtype=np.int64)
+    for k, (px, py) in enumerate(points):  # setup: once per gauge
+        tol = 1e-9 * max(abs(px), abs(py), 1e-3)
+        cand = np.flatnonzero((lo[:, 0] <= px + tol) & (hi[:, 0] >= px - tol) & (lo[:, 1] <= py + tol)
+                              & (hi[:, 1] >= py - tol) & (upper == (py > 0.0)))
+        d = np.array([px, py]) - p[cand, 0]
+        l1 = (d[:, 0] * e2[cand, 1] - d[:, 1] * e2[cand, 0]) / det[cand]
+        l2 = (e1[cand, 0] * d[:, 1] - e1[cand, 1] * d[:, 0]) / det[cand]
+        inside = np.flatnonzero(np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -1e-9)
+        if not len(inside):
+            raise ValueError(f"gauge at ({px:g}, {py:g}) m lies on no plate of the mesh")
+        found[k] = cand[inside[0]]
+    tri = cells[found]
+    v = x[tri]
+    # J = [p1 − p0, p2 − p0] (columns); (λ1, λ2) = J⁻¹ (x − p0); ∇λ1, ∇λ2 are J⁻¹'s rows
+    J = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]], axis=2)
+    Jinv = np.linalg.inv(J)
+    lam = np.einsum("nij,nj->ni", Jinv, points - v[:, 0])
+    weights = np.column_stack([1.0 - lam.sum(axis=1), lam])
+    grads = np.stack([-Jinv[:, 0] - Jinv[:, 1], Jinv[:, 0], Jinv[:, 1]], axis=1)
+    return Located(tri, weights, grads, v)
+
+
+def evaluate(nodal: np.ndarray, loc: Located, mu: float, lmbda: float, sigma0: float, tau0: float) -> dict:
+    """Gauge values from the nodal values ``nodal`` float64[..., n, 3, 4] (u1, u2, v1, v2
+    of each gauge's three nodes, for any leading sample axes): {quantity of
+    :data:`QUANTITIES`: float64[..., n(, components)]}.  ``mu``, ``lmbda``: the
+    in-plane Lamé constants [Pa] (plane stress or strain)."""
+    u, v = nodal[..., 0:2], nodal[..., 2:4]
+    grad = np.einsum("...nkc,nkd->...ncd", u, loc.grads)  # ∂u_c/∂x_d
+    e11, e22 = grad[..., 0, 0], grad[..., 1, 1]
+    e12 = 0.5 * (grad[..., 0, 1] + grad[..., 1, 0])
+    tr = e11 + e22
+    s11 = 2.0 * mu * e11 + lmbda * tr
+    s22 = 2.0 * mu * e22 + lmbda * tr - sigma0
+    s12 = 2.0 * mu * e12 + tau0
+    return {
+        "displacement": np.einsum("nk,...nkc->...nc", loc.weights, u),
+        "velocity": np.einsum("nk,...nkc->...nc", loc.weights, v),
+        "strain": np.stack([e11, e22, e12], axis=-1),
+        "stress": np.stack([s11, s22, s12], axis=-1),
+        "stress_difference": 2.0 * np.sqrt((0.5 * (s11 - s22)) ** 2 + s12 ** 2),
+    }
+
+
+class GaugeWriter:
+    """Samples the scene's gauges every ``output.gauges_every`` steps into ``gauges.h5``
+    (:meth:`observe` is collective; rank 0 writes).
+
+    Crash safety, as ``interface.h5`` (:mod:`.recorder`): the file is laid out whole
+    before the run (every dataset the size of the full run, allocated and filled
+    with NaN, all metadata written once) under a temporary name renamed when
+    complete; a flush writes the new rows' values, flushes, then their times and
+    flushes again, so the valid rows are the leading rows with a finite time.  A
+    run that ends early is compacted to the rows it has.  Creating the file is
+    collective: an error is raised as OSError on every rank.
+    """
+
+    def __init__(self, path: Path, scene, model):
+        from ..scene.output_keys import check_gauges
+
+        table = check_gauges(scene.output["gauges"], scene.mesh)
+        self.names = tuple(table)
+        self.points = np.array([table[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
+        self.every = int(scene.output["gauges_every"])
+        from mpi4py import MPI  # here, so that reading gauges.h5 needs no MPI
+
+        self.comm, self.sum = model.comm, MPI.SUM
+        self.dt = model.dt
+        self.planned = int(math.floor(scene.t_end / model.dt + 1e-9)) // self.every + 1  # rows, t = 0 included
+        self.path = Path(path)
+        mat = scene.material
+        self.constants = (mat.mu, mat.lmbda, scene.sigma0, scene.tau0)
+        num = model.num
+        self.loc = locate(num.x, num.cells, self.points)
+        blk = num.block_of_node[self.loc.triangle].ravel()  # this rank's block of each (gauge, vertex), or −1
+        owned = (blk >= 0) & (blk < num.n_owned)
+        slots = np.flatnonzero(owned)  # the (gauge, vertex) pairs this rank supplies, flat
+        self.dofs = (2 * blk[owned, None] + np.arange(2)).ravel()  # their (x1, x2) dofs in the owned arrays
+        self.to_u = (4 * slots[:, None] + np.arange(2)).ravel()  # where u1, u2 go in the flat send buffer
+        self.to_v = self.to_u + 2  # v1, v2
+        self.send = np.zeros((len(self.names) * 3, 4))
+        self.flat = self.send.reshape(-1)  # a view
+        self.recv = np.zeros_like(self.send) if self.comm.rank == 0 else None
+        self.pending = []  # (t, nodal values [n_g, 3, 4]) gathered on rank 0, evaluated at the flush
+        self.written = 0
+        self.h5 = error = None
+        if self.comm.rank == 0:
+            try:
+                self.h5 = self._create(scene)
+            except OSError as err:
+                error = err
+        error = self.comm.bcast(error, root=0)
+        if error is not None:
+            raise error
+
+    def _create(self, scene):
+        """Lay the file out whole under a temporary name, flush it, rename it (rank 0)."""
+        import h5py
+
+        from .recorder import h5_error
+
+        tmp = self.path.with_name(f".{self.path.name}.part")
+        tmp.unlink(missing_ok=True)
+        try:
+            f = h5py.File(tmp, "w")
+        except OSError as err:
+            raise h5_error(err, tmp) from None
+        try:
+            n, rows = len(self.names), self.planned
+            f.attrs.update(scene=scene.name, units="SI", every_steps=self.every, dt=self.dt, rows_planned=rows,
+                           sigma0=scene.sigma0, tau0=scene.tau0, plane=scene.material.plane,
+                           valid_rows="the leading rows whose time is finite (NaN: not computed)")
+            g = f.create_group("gauge")
+            g.create_dataset("name", data=np.array(self.names, dtype=object), dtype=h5py.string_dtype())
+            for name, data in (("position", self.points), ("triangle", self.loc.vertices)):
+                g.create_dataset(name, data=data).attrs["unit"] = "m"
+            for name in ("time", "velocity_time"):
+                _allocated(f, name, (rows,), "s", "")
+            for q, (unit, comps, doc) in QUANTITIES.items():
+                d = _allocated(f, q, (rows, n, len(comps)) if comps else (rows, n), unit, doc)
+                d.attrs["components"] = ",".join(comps)
+            f.flush()
+            os.replace(tmp, self.path)
+        except BaseException as err:
+            f.close()
+            tmp.unlink(missing_ok=True)
+            if isinstance(err, OSError):
+                raise h5_error(err, self.path) from None
+            raise
+        return f
+
+    def observe(self, state) -> None:
+        """Sample the gauges if step ``state.n`` is due (collective then)."""
+        if state.n % self.every:
+            return
+        self.flat[self.to_u] = state.u.array_r[self.dofs]  # 1-D fancy indexing: ~1 µs for 100 gauges
+        self.flat[self.to_v] = state.v.array_r[self.dofs]
+        self.comm.Reduce(self.send, self.recv, op=self.sum, root=0)  # one owner per entry: exact
+        if self.comm.rank == 0:
+            self.pending.append((state.t, self.recv.reshape(-1, 3, 4).copy()))
+
+    def flush(self) -> None:
+        """Write the pending rows (rank 0; no communication): values, an HDF5 flush,
+        then their times, another flush."""
+        f = self.h5
+        if f is None:
+            return
+        n0 = self.written
+        n1 = min(n0 + len(self.pending), self.planned)
+        if n1 > n0:
+            rows = self.pending[: n1 - n0]
+            t = np.array([r[0] for r in rows])
+            values = evaluate(np.stack([r[1] for r in rows]), self.loc, *self.constants)  # all rows at once
+            for q, a in values.items():
+                f[q][n0:n1] = a
+            f["velocity_time"][n0:n1] = t - 0.5 * self.dt
+            f.flush()
+            f["time"][n0:n1] = t
+            self.pending.clear()
+            self.written = n1
+        f.flush()
+
+    def close(self) -> None:
+        """Flush and close (rank 0); a file with fewer rows than planned (the run ended
+        early) is replaced by a copy of its valid rows."""
+        self.flush()
+        if self.h5 is None:
+            return
+        self.h5.close()
+        self.h5 = None
+        if self.written < self.planned:
+            from .recorder import compact
+
+            compact(self.path, {"": self.written})
+
+
+def _allocated(f, name: str, shape, unit: str, doc: str):
+    """A contiguous float64 dataset allocated and filled with NaN at creation."""
+    import h5py
+
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
+    dcpl.set_fill_value(np.array(np.nan))
+    d = f.create_dataset(name, shape=shape, dtype="f8", dcpl=dcpl)
+    d.attrs.update(unit=unit, meaning=doc)
+    return d
+
+
+@dataclasses.dataclass
+class Gauge:
+    """One gauge's histories, SI (see :data:`QUANTITIES`): ``velocity`` float64[n_t, 2]
+    at ``velocity_time``; ``displacement`` [n_t, 2], ``strain``, ``stress`` [n_t, 3]
+    (11, 22, 12) and ``stress_difference`` [n_t] at ``time``."""
+
+    name: str
+    x1: float
+    x2: float
+    time: np.ndarray
+    velocity_time: np.ndarray
+    displacement: np.ndarray
+    velocity: np.ndarray
+    strain: np.ndarray
+    stress: np.ndarray
+    stress_difference: np.ndarray
+
+
+class GaugeFile:
+    """The valid rows of a run's ``gauges.h5`` (those with a finite time: a run still
+    going or killed reads as far as it was flushed): ``names``, ``position``
+    [n_g, 2] and ``triangle`` [n_g, 3, 2] [m], ``time``, ``velocity_time`` [s],
+    ``data[quantity]``, ``units``; ``gauges[name]`` -> :class:`Gauge`."""
+
+    def __init__(self, path):
+        from .rundir import _h5open, valid_rows
+
+        self.path = Path(path)
+        with _h5open(self.path) as f:
+            n = valid_rows(f["time"])
+            g = f["gauge"]
+            self.names = tuple(s.decode() if isinstance(s, bytes) else str(s) for s in g["name"][...])
+            self.position = g["position"][...]
+            self.triangle = g["triangle"][...]
+            self.time = f["time"][:n]
+            self.velocity_time = f["velocity_time"][:n]
+            self.data = {q: f[q][:n] for q in QUANTITIES}
+            self.components = {q: tuple(c for c in str(f[q].attrs.get("components", "")).split(",") if c)
+                               for q in QUANTITIES}
+        self.units = {"time": "s", "velocity_time": "s", "position": "m", **{q: QUANTITIES[q][0] for q in QUANTITIES}}
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name) -> bool:
+        return name in self.names
+
+    def __getitem__(self, name: str) -> Gauge:
+        if name not in self.names:
+            raise KeyError(f"{self.path}: no gauge {name!r}; has {', '.join(self.names)}")
+        k = self.names.index(name)
+        return Gauge(name, float(self.position[k, 0]), float(self.position[k, 1]), self.time, self.velocity_time,
+                     **{q: self.data[q][:, k] for q in QUANTITIES})
+
+
+def open_gauges(rundir) -> GaugeFile | None:
+    """The gauges of a run directory (or a ``gauges.h5`` path); None if it wrote none."""
+    path = Path(rundir)
+    path = path / GAUGES_FILE if path.is_dir() else path
+    return GaugeFile(path) if path.is_file() else None
