@@ -116,6 +116,12 @@ def sweep_run(out: Path, ranks: int, args: list) -> dict:
             "incomplete": doc["incomplete"], "dir": str(out)}
 
 
+def committed_labels() -> list:
+    """The label grid of the committed 8 × 8 map (either layout of its ``labels``)."""
+    labels = json.loads(PAPER_MAP.read_text())["maps"]["main"]["labels"]
+    return labels["values"] if isinstance(labels, dict) else labels
+
+
 def map8(root: Path, ranks: int, smoke: bool) -> dict:
     args = ["case1", "--sigma0", "6,30", "--v-imp", "2,20", "--preset", "coarse", "--set", "time.end=10e-6"] \
         if smoke else ["case1", "--grid", "default"]
@@ -125,7 +131,7 @@ def map8(root: Path, ranks: int, smoke: bool) -> dict:
            "speedup_reuse": fresh["sweep_wall_s"] / reuse["sweep_wall_s"],
            "same_labels_reuse_fresh": reuse["labels"] == fresh["labels"]}
     if not smoke and PAPER_MAP.is_file():
-        out["same_labels_as_committed_map"] = reuse["labels"] == json.loads(PAPER_MAP.read_text())["maps"]["main"]["labels"]
+        out["same_labels_as_committed_map"] = reuse["labels"] == committed_labels()
     if not smoke:
         shutil.copy(root / "map8_reuse" / "modemap.png", RESULTS / "modemap_default8.png")
     return out
@@ -134,9 +140,10 @@ def map8(root: Path, ranks: int, smoke: bool) -> dict:
 # ## 2. The adaptive 32 × 32 map against the full one
 
 
-def full_map(full_dir: Path | None) -> dict | None:
+def full_map(full_dir: Path | None, load_log: Path | None = None) -> dict | None:
     """The full 32 × 32 map: from its sweep directory (and kept, small, in
-    results/modemap_full32.json), or from that file."""
+    results/modemap_full32.json), or from that file.  ``load_log``: lines
+    'HH:MM:SS load1 load5 load15' taken while it ran."""
     keep = RESULTS / "modemap_full32.json"
     if full_dir is not None:
         doc = json.loads((Path(full_dir) / "modemap.json").read_text())
@@ -147,6 +154,10 @@ def full_map(full_dir: Path | None) -> dict | None:
                  "counts": dict(Counter(lab for row in doc["labels"]["values"] for lab in row)),
                  "scenes": len(doc["points"]), "incomplete": doc["incomplete"], "calls": doc["calls"],
                  "wall_s_all_calls": wall, "point_wall_s_sum": sum(p["wall_s"] or 0 for p in doc["points"])}
+        if load_log is not None:
+            loads = [float(line.split()[1]) for line in Path(load_log).read_text().splitlines() if line.strip()]
+            small["load_1min_while_running"] = {"samples": len(loads), "median": statistics.median(loads),
+                                                "min": min(loads), "max": max(loads)}
         keep.write_text(json.dumps(small, indent=1))
         shutil.copy(Path(full_dir) / "modemap.png", RESULTS / "modemap_full32.png")
         return small
@@ -210,6 +221,36 @@ def import_times(lines) -> dict:
     return dict(by.most_common())
 
 
+def ghost_lists(preset: str = "reference", nparts: int = 2) -> dict:
+    """The mesh partitioner's ghost lists (each cell's owner and its neighbours'
+    parts): the per-cell Python loop fricfem used before against
+    :func:`fricfem.model.mesh.ghost_destinations`, same output, timed in this process."""
+    import numpy as np
+
+    from fricfem.model import grid, mesh
+
+    x, cells, *_ = grid.grid_arrays(mesh.preset(preset))
+    e = np.sort(np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 0]]]), axis=1)
+    cid = np.tile(np.arange(len(cells)), 3)
+    order = np.lexsort((e[:, 1], e[:, 0]))
+    e, cid = e[order], cid[order]
+    same = (e[1:] == e[:-1]).all(axis=1)  # cells sharing an edge
+    src = np.concatenate([cid[:-1][same], cid[1:][same]])
+    dst = np.concatenate([cid[1:][same], cid[:-1][same]])
+    o = np.argsort(src, kind="stable")
+    src, dst = src[o], dst[o]
+    off = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=len(cells)))])
+    owner = grid.bisection_parts(x[cells].mean(axis=1), nparts)
+    t0 = time.perf_counter()
+    loop = [[int(w), *sorted(set(owner[dst[off[i]:off[i + 1]]].tolist()) - {int(w)})] for i, w in enumerate(owner)]
+    t1 = time.perf_counter()
+    dest, offsets = mesh.ghost_destinations(owner, dst, off, nparts)
+    t2 = time.perf_counter()
+    same_out = bool(np.array_equal(np.concatenate(loop), dest))
+    return {"cells": len(cells), "parts": nparts, "loop_s": t1 - t0, "numpy_s": t2 - t1, "same_output": same_out,
+            "load": os.getloadavg()[0]}
+
+
 def startup(root: Path, smoke: bool) -> dict:
     cmd = [sys.executable, "-X", "importtime", "-m", "fricfem.cli", "run", "case1", "--set", "mesh.preset='coarse'",
            "--set", "time.end=2e-6", "--set", "output.fields=[]", "--out", root / "startup", "--overwrite", "--quiet"]
@@ -229,7 +270,8 @@ def startup(root: Path, smoke: bool) -> dict:
             "load_during": [p[2] for p in per], "modules_not_imported": [m for m in ("gmsh", "matplotlib", "pyvista",
                                                                                      "meshio") if m not in pk],
             "import_gmsh_alone_s": statistics.median(gmsh) - statistics.median(py),
-            "python_pass_s": statistics.median(py), "mpirun2_mpi4py_s": statistics.median(mpi)}
+            "python_pass_s": statistics.median(py), "mpirun2_mpi4py_s": statistics.median(mpi),
+            "ghost_lists": ghost_lists("coarse" if smoke else "reference")}
 
 
 # ## The report
@@ -266,8 +308,10 @@ def markdown(res: dict) -> str:
         lines += ["## Full 32 × 32 map (run once)\n",
                   f"`{full['command']}`: {full['scenes']} scenes, {full['wall_s_all_calls']:.0f} s on 2 ranks "
                   f"(Σ of the points' run times {full['point_wall_s_sum']:.0f} s); labels "
-                  f"{', '.join(f'{k} {v}' for k, v in sorted(full['counts'].items(), key=str))}. "
-                  "Load while it ran: see `modemap_full32.json` → calls.\n"]
+                  f"{', '.join(f'{k} {v}' for k, v in sorted(full['counts'].items(), key=str))}"
+                  + (". 1-minute load average while it ran: median {median:.1f} (min {min:.1f}, max {max:.1f}, "
+                     "{samples} samples).\n".format(**full["load_1min_while_running"])
+                     if "load_1min_while_running" in full else ".\n")]
     if ad:
         lines += [f"## Adaptive 32 × 32 map {_when(ad)}\n",
                   f"`--adaptive --coarse {ad['coarse']}`: {ad['scenes']} scenes in {len(ad['rounds'])} rounds "
@@ -276,8 +320,11 @@ def markdown(res: dict) -> str:
                      f"({len(ad['disagree'])} differ; the computed points all agree: {ad['computed_points_agree']})"
                      if "agreement_with_full" in ad else "") + ".\n"]
         if full:
-            lines.append(f"Scenes: {ad['scenes']} of {full['scenes']} "
-                         f"({100 * ad['scenes'] / full['scenes']:.0f} %).\n")
+            lines.append(f"Scenes: {ad['scenes']} of {full['scenes']} ({100 * ad['scenes'] / full['scenes']:.0f} %); "
+                         f"wall time {ad['sweep_wall_s'] / full['wall_s_all_calls']:.2f} × the full map's. The full map "
+                         "and this one ran on the same code (the commit named above), under about the same load. "
+                         "Points that differ [i, j, full, adaptive]: "
+                         + ", ".join(f"[{i}, {j}, {a}, {b}]" for i, j, a, b in ad.get("disagree", [])) + ".\n")
     c1 = res.get("case1")
     if c1:
         sp = c1["median_split_s"]
@@ -297,6 +344,12 @@ def markdown(res: dict) -> str:
                      f"(which dolfinx's gmshio pulled in, now avoided): {st['import_gmsh_alone_s']:.2f} s; `python -c "
                      f"pass` {st['python_pass_s']:.2f} s; `mpirun -n 2 python -c 'from mpi4py import MPI'` "
                      f"{st['mpirun2_mpi4py_s']:.2f} s.\n")
+        g = st.get("ghost_lists")
+        if g:
+            lines.append(f"Setting up the mesh: the partitioner's ghost lists for the {g['cells']:,} cells of the "
+                         f"reference mesh on {g['parts']} parts took {g['loop_s']:.3f} s as the per-cell loop used "
+                         f"before and {g['numpy_s']:.4f} s now (same output: {g['same_output']}; load {g['load']:.1f})."
+                         "\n")
     return "\n".join(lines)
 
 
@@ -305,6 +358,7 @@ def main(argv=None) -> int:
     ap.add_argument("--full", type=Path, help="the full 32 × 32 map's sweep directory (else results/modemap_full32.json)")
     ap.add_argument("--only", default="map8,adaptive,case1,startup",
                     help="parts to run, comma-separated (also 'full': only read the full map of --full)")
+    ap.add_argument("--full-load", type=Path, help="load averages logged while the full map ran (one line a minute)")
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--coarse", type=int, default=5, help="the adaptive map's first grid, values per axis")
     ap.add_argument("--warm-repeats", type=int, default=5)
@@ -332,7 +386,7 @@ def main(argv=None) -> int:
     if "map8" in parts:
         res["map8"] = {**map8(args.work, args.ranks, args.smoke), **stamp}
     if "full" in parts or "adaptive" in parts:
-        res["full32"] = full_map(args.full)
+        res["full32"] = full_map(args.full, args.full_load)
     if "adaptive" in parts:
         res["adaptive"] = {**adaptive(args.work, args.ranks, res["full32"], args.coarse), **stamp}
     if "case1" in parts:

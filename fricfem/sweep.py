@@ -327,12 +327,19 @@ def _diff(a, b, prefix=""):
 
 
 def _todo(spec: dict, select=None) -> tuple:
-    """Rank 0: (maps, points, points to run), or a SceneError (bad input, stale points)."""
+    """Rank 0: (maps, points, points to run), or a SceneError (bad input, stale points).
+    ``spec["planned"]``: (maps, every point) planned already (the cost check), else planned here."""
     out = spec["out"]
     if out.exists() and not out.is_dir():
         raise SceneError(f"--out {str(out)!r}: exists and is not a directory")
-    maps, points = plan(spec["base"], spec["sigma0"], spec["v_imp"], spec["sets"], spec["preset"],
-                        spec["variants"], out, select)
+    if spec.get("planned"):
+        maps, points = spec["planned"]
+        if select is not None:
+            chosen = {m: set(ij) for m, ij in select.items()}
+            points = [p for p in points if p.ij in chosen.get(p.map, ())]
+    else:
+        maps, points = plan(spec["base"], spec["sigma0"], spec["v_imp"], spec["sets"], spec["preset"],
+                            spec["variants"], out, select)
     todo, stale = [], []
     for p in points:
         st = batch.status(p.job)
@@ -379,21 +386,24 @@ def run_round(pool, spec: dict, log, select=None, note: str = "") -> tuple:
 
 def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, variants=False,
           overwrite=False, quiet=False, comm=MPI.COMM_WORLD, ranks_per_scene: int = 1,
-          adaptive: tuple | None = None, reuse: bool = True) -> dict | None:
+          adaptive: tuple | None = None, reuse: bool = True, planned=None) -> dict | None:
     """Run (or resume) the map(s) (collective on ``comm``).
 
     ``adaptive``: (coarse Σ0 values, coarse V_imp values) to start an adaptive
     map from (:mod:`fricfem.adaptive`); None: every point of the grid.  ``reuse``:
     the points of a group share one model per mesh and interface
     (:mod:`fricfem.model.reuse`; False builds each afresh, for comparison).
-    Returns ``{"maps": {map name: modemap.json document}, "wall_s"}`` on rank
-    0, None elsewhere.  Raises :class:`SceneError` on every rank, before any
+    ``planned``: ``plan(...)`` of every point with these arguments, if done
+    already (rank 0 uses it instead of loading every scene again).
+    Returns ``{"maps": {map name: modemap.json document}, "wall_s"}`` on every
+    rank.  Raises :class:`SceneError` on every rank, before any
     run, when an input is bad or (without ``overwrite``) a complete point in
     ``out`` was computed with other inputs.
     """
     t0 = time.perf_counter()
     spec = {"base": base, "sigma0": tuple(sigma0_mpa), "v_imp": tuple(v_imp), "out": Path(out),
-            "sets": list(sets or ()), "preset": preset, "variants": variants, "overwrite": overwrite}
+            "sets": list(sets or ()), "preset": preset, "variants": variants, "overwrite": overwrite,
+            "planned": planned if comm.rank == 0 else None}
     log = _Log(spec["out"] / "sweep.log", comm.rank, quiet)
     with batch.Pool(comm, ranks_per_scene, reuse=reuse) as pool:
         if adaptive is None:
@@ -438,8 +448,8 @@ def _collect(maps, points, results, spec, label, ranks, t0, refined=None) -> dic
         meta = {
             "title": label if label and not name else f"{label}: C_n, C_s {_factor(f)}" if label
             else physics_title(mp["scene"]),
-            "note": f"base scene {mp['scene'].name}; {len(recs)} scenes"
-                    + (f" of {len(s) * len(v)} points (adaptive)" if refined else ""),
+            "note": f"base scene {mp['scene'].name};\n{len(recs)} scenes"
+                    + (f" of {len(s) * len(v)} points\n(adaptive)" if refined else ""),
             "base": str(spec["base"]), "map": name or "main", "dir": str(mp["dir"]), "sets": spec["sets"],
             "preset": spec["preset"], "interface_factor": f, "Cn_Pa_m": mp["Cn"], "Cs_Pa_m": mp["Cs"],
             "t_end_s": mp["scene"].t_end, "law": mp["scene"].law,

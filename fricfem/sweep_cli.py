@@ -68,13 +68,14 @@ def parser(comm=MPI.COMM_WORLD) -> argparse.ArgumentParser:
     return p
 
 
-def _check_cost(args, s, v, comm) -> None:
+def _check_cost(args, s, v, comm) -> tuple:
     """Every point's scene within the budget (each point, and the map's total dof·steps;
     an adaptive map counts as the full grid, its upper bound), unless ``--force``; the
-    points' scale warnings once, on rank 0.  Nothing is built."""
+    points' scale warnings once, on rank 0.  Nothing is built.  Returns the plan
+    (maps, points), which the sweep then uses."""
     from .scene import cost
 
-    _, points = plan(args.scene, s, v, args.set, args.preset, args.variants, Path(args.out))
+    maps, points = plan(args.scene, s, v, args.set, args.preset, args.variants, Path(args.out))
     total = 0.0
     warned = []
     for p in points:
@@ -92,6 +93,7 @@ def _check_cost(args, s, v, comm) -> None:
             print(f"fricfem sweep: warning: {w}", file=sys.stderr)
         if len(warned) > 3:
             print(f"fricfem sweep: warning: ... and {len(warned) - 3} more", file=sys.stderr)
+    return maps, points
 
 
 def _axes(args, comm) -> tuple:
@@ -131,10 +133,10 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> int:
         return 2 if stop.code else 0
     try:
         s, v, coarse = _axes(args, comm)
-        _check_cost(args, s, v, comm)
+        planned = _check_cost(args, s, v, comm)
         res = sweep(args.scene, s, v, args.out, args.set, args.preset, args.label, args.variants,
                     args.overwrite, args.quiet, comm, args.ranks_per_scene, adaptive=coarse,
-                    reuse=not args.no_reuse)
+                    reuse=not args.no_reuse, planned=planned)
     except SceneError as err:
         if comm.rank == 0:
             print(f"fricfem sweep: error: {err}", file=sys.stderr)

@@ -17,6 +17,8 @@ METRICS = (("t_r_pct", "worst |Δt_r| [% of t_r]"), ("slip_pct", "worst |Δ fina
            ("v_peak_pct", "worst |Δ peak slip rate| [%]"))
 GOAL_CPU = 0.5  # fricfem reaches the peer's accuracy at <= this fraction of its CPU
 GOAL_RIGID = 0.5  # % worst rupture-time error of the rigid kind
+#: line styles of the fricfem series by tag (score.py --tag): 1 rank solid, 2 ranks dotted, variants dashed
+LINES = {"serial": "-", "tree": ":", "proposed-serial": "--", "proposed": (0, (1, 3))}
 
 
 def series(runs: dict, kind: str) -> list:
@@ -25,22 +27,19 @@ def series(runs: dict, kind: str) -> list:
 
 
 def cpu_to_reach(points, err: float, metric: str):
-    """CPU seconds a fricfem ladder needs to reach error ``err`` (log–log interpolation
-    between its runs): (cpu, how) with how 'interpolated', 'at most' (its cheapest run
-    is already as accurate) or None (not reached on the ladder)."""
+    """CPU seconds a fricfem ladder needs to reach error ``err``: (cpu, how).  In cost
+    order, the first run at or below ``err``; if it is the cheapest run, 'at most'
+    its CPU, else the log–log interpolation between it and the run before
+    ('interpolated'); (None, None) if no run reaches ``err``."""
     pts = sorted((r["cpu_s"], r[metric]) for _, r in points)
-    best = None
-    for c, e in pts:
-        if e <= err:
-            best = c if best is None else min(best, c)
-    if best is None:
-        return None, None
-    # interpolate between the last run above err and the first below it, in cost order
-    for (c0, e0), (c1, e1) in zip(pts, pts[1:]):
-        if e0 > err >= e1 and e1 > 0:
-            f = math.log(e0 / err) / math.log(e0 / e1)
+    for i, (c1, e1) in enumerate(pts):
+        if e1 <= err:
+            if i == 0:
+                return c1, "at most"
+            c0, e0 = pts[i - 1]
+            f = math.log(e0 / err) / math.log(e0 / e1) if e1 > 0 else 1.0
             return math.exp(math.log(c0) + f * math.log(c1 / c0)), "interpolated"
-    return best, ("at most" if best == pts[0][0] else "interpolated")
+    return None, None
 
 
 def _fmt(v, d=3):
@@ -60,8 +59,14 @@ def problem_md(name: str, prob: dict) -> list:
                          f"{r['cpu_s']:.1f} | {r['dofs']:,} dofs, {r['steps']} steps | {r['t_r_us']:.3f} | "
                          f"{r['t_r_pct']:.2f} | {r['t_r_rms_pct']:.2f} | {r['slip_pct']:.2f} | "
                          f"{r['v_peak_pct']:.1f} |")
+    spread = prob["peer"].get("h0.05mm")
     L += ["", "CPU: fricfem, user + system of the whole run summed over its ranks "
-          f"({_ranks(prob)} ranks); SEM2DPACK, user + system of its serial run.", ""]
+          f"({_ranks(prob)} ranks); SEM2DPACK, user + system of its serial run."]
+    if spread:
+        L.append(f"The reference's own uncertainty: the peer's two finest runs (degree 4 at 0.05 mm, degree 8 at "
+                 f"0.0625 mm) differ by {spread['t_r_pct']:.2f} % in rupture time and {spread['slip_pct']:.2f} % in "
+                 f"final slip (worst stations); smaller errors are not resolved by this reference.")
+    L.append("")
     L += goal_md(prob)
     L += stations_md(prob)
     return L
@@ -137,9 +142,10 @@ def figure(name: str, prob: dict, path: Path) -> None:
                     continue
                 c = [r["cpu_s"] for _, r in pts]
                 e = [max(r[metric], 1e-3) for _, r in pts]
-                filled = tag == "tree"
+                filled = not tag.startswith("proposed")  # the tree's own code: filled markers
                 ax.plot(c, e, marker="^" if kind == "rigid" else "v", color=color, mfc=color if filled else "none",
-                        ls="-" if filled else "--", label=f"fricfem {kind}" + ("" if filled else f" [{tag}]"))
+                        ls=LINES.get(tag, "-."), lw=1.6 if "serial" in tag else 0.9,
+                        label=f"fricfem {kind} [{tag}]")
                 for (h, _), ci, ei in zip(pts, c, e):
                     ax.annotate(f"{h * 1e3:g}", (ci, ei), fontsize=7, color=color, xytext=(3, -9),
                                 textcoords="offset points")
@@ -165,7 +171,9 @@ def write(doc: dict, out: Path = RESULTS) -> None:
     for tag in sorted({tg for p in doc["problems"].values() for tg in p["fricfem"]}):
         note = next(p["fricfem"][tag]["note"] for p in doc["problems"].values() if tag in p["fricfem"])
         L.append(f"- `{tag}`: {note}")
-    L.append("")
+    L += ["", "Commands: `score.py` (tag `tree`, 2 ranks); `score.py --ranks 1 --tag serial`; a variant: "
+          "`score.py --pythonpath <its source tree> --tag <name> --note <what differs>` (with `--ranks 1` for "
+          "the serial one).  The `proposed` variant and why: docs/interface_kinds.md.", ""]
     for name, prob in doc["problems"].items():
         L += problem_md(name, prob)
         figure(name, prob, out / f"peer_{name}.png")

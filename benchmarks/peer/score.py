@@ -34,9 +34,11 @@
 # recorded at t^n: its times are moved by dt/2 (slip rate) and dt (slip), so
 # that they mean what the peer's centred values mean.
 #
-# Run (both problems, h = 0.2, 0.1, 0.05 mm, both kinds; ~1-2 h on 2 busy cores):
+# Run (both problems, h = 0.4, 0.2, 0.1, 0.05 mm, both kinds; about 30 CPU
+# minutes, 1-2 h on 2 busy cores):
 #
-#     .venv/bin/python benchmarks/peer/score.py
+#     .venv/bin/python benchmarks/peer/score.py                                 # 2 ranks, tag "tree"
+#     .venv/bin/python benchmarks/peer/score.py --ranks 1 --tag serial --note "fricfem as in this tree, on 1 rank"
 #     .venv/bin/python benchmarks/peer/score.py --problems tpv205_2d --h 0.2e-3 0.1e-3 --kinds rigid
 #
 # Each run goes to ``runs/peer_score/<tag>/<problem>/<kind>_h<h>``; a complete
@@ -256,17 +258,19 @@ def score_problem(problem: str, args, doc: dict) -> None:
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--problems", nargs="+", default=list(PROBLEMS), choices=PROBLEMS)
-    ap.add_argument("--h", nargs="+", type=float, default=[0.2e-3, 0.1e-3, 0.05e-3], help="band cell sizes [m]")
+    ap.add_argument("--h", nargs="+", type=float, default=[0.4e-3, 0.2e-3, 0.1e-3, 0.05e-3],
+                    help="band cell sizes [m]")
     ap.add_argument("--kinds", nargs="+", default=["rigid", "elastic"], choices=["rigid", "elastic"])
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--tag", default="tree", help="name of this fricfem (default: the tree's own)")
-    ap.add_argument("--note", default="fricfem as in this tree")
+    ap.add_argument("--note", help="what this fricfem is (default: as in this tree, on N ranks)")
     ap.add_argument("--pythonpath", help="run fricfem from this source tree instead")
     ap.add_argument("--t-end", type=float, help="end time [s] (default: the scene's; shorter for quick looks)")
     ap.add_argument("--rerun", action="store_true")
     ap.add_argument("--out", default=str(RESULTS))
     ap.add_argument("--no-report", action="store_true")
     args = ap.parse_args(argv)
+    args.note = args.note or f"fricfem as in this tree, on {args.ranks} rank{'s' if args.ranks > 1 else ''}"
     out = Path(args.out)
     path = out / "peer_score.json"
     doc = json.loads(path.read_text()) if path.exists() else {"problems": {}}

@@ -209,7 +209,7 @@ def table(results: dict) -> str:
                  "≤ 1 mm behind at its end", ok))
     fr = e42["fringe_ratio"]
     rows.append(("experiment_42: fringes denser in the struck plate (mean σ1 − σ2, lower over upper, "
-                 "x1 < 60 mm, |x2| < 30 mm)", ", ".join(f"{k} µs: {v['ratio']:.1f} (N ≈ {v['N_lower']:.0f} "
+                 "x1 < 60 mm, −30 < x2 < 30 mm)", ", ".join(f"{k} µs: {v['ratio']:.1f} (N ≈ {v['N_lower']:.0f} "
                                                          f"against {v['N_upper']:.0f})" for k, v in fr.items()),
                  "ratio > 1 at every frame", all(v["ratio"] > 1 for v in fr.values())))
     v32, v42 = e32["tip"]["mean_m_s"], e42["tip"]["mean_m_s"]

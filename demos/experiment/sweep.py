@@ -10,7 +10,7 @@
 # on one rank (runs dealt round-robin), measured as in `experiments.py`.
 #
 # Run: `mpirun -n 2 .venv/bin/python demos/experiment/sweep.py [--preset reference]`
-# Writes benchmarks/results/experiment/sweep_<preset>.json and .png.
+# Writes benchmarks/results/experiment/sweep_<preset><tag>.json and .png.
 
 import argparse
 import json
@@ -36,6 +36,7 @@ ap.add_argument("--sigma0", default="4.7e6,9.4e6,18.8e6")
 ap.add_argument("--t-end", type=float, default=56e-6)
 ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
 ap.add_argument("--work", type=Path, default=Path("runs/experiment_sweep"))
+ap.add_argument("--tag", default="", help="suffix of the output files (another grid)")
 a = ap.parse_args()
 world = MPI.COMM_WORLD
 self_comm = MPI.COMM_SELF
@@ -70,7 +71,7 @@ if world.rank == 0:
         ok = [x for x in v_tip if x]
         trend[f"{s:g}"] = {"increasing_with_speed": bool(len(ok) > 1 and all(np.diff(ok) > -10.0)),
                            "in_sqrt2cs_cl": bool(all(math.sqrt(2) * sp["c_s"] < x < sp["c_l"] for x in ok))}
-    (a.out / f"sweep_{a.preset}.json").write_text(json.dumps({"rows": rows, "trend": trend}, indent=1,
+    (a.out / f"sweep_{a.preset}{a.tag}.json").write_text(json.dumps({"rows": rows, "trend": trend}, indent=1,
                                                              default=float) + "\n")
     fig = Figure(figsize=(10, 3.8))
     ax1, ax2 = fig.subplots(1, 2)
@@ -90,7 +91,7 @@ if world.rank == 0:
             title="separate sliding regions")
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(a.out / f"sweep_{a.preset}.png", dpi=110)
+    fig.savefig(a.out / f"sweep_{a.preset}{a.tag}.png", dpi=110)
     for r in rows:
         print(f"v {r['v_projectile_m_s']:5.1f} Σ0 {r['sigma0_Pa'] / 1e6:5.1f}: tip {r['tip']['mean_m_s']}, "
               f"mode {r['mode']}, stretches {r['max_stretches']}, second {r['second_front']['count']}")

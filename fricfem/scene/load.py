@@ -36,7 +36,7 @@ MAX_BYTES = 4 << 20
 #: Longest ``base`` chain followed.
 MAX_DEPTH = 32
 #: Keys whose value is a table of free names (``--set`` may reach one level into them).
-_OPEN_TABLES = {("friction", "params"), ("output", "stations")}
+_OPEN_TABLES = {("friction", "params"), ("output", "stations"), ("output", "gauges")}
 
 
 def shipped() -> dict:
