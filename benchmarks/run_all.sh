@@ -14,3 +14,16 @@ $MPI $PY benchmarks/skipping.py
 $MPI $PY benchmarks/stability.py
 $PY benchmarks/spike_theory.py                       # serial
 $MPI $PY benchmarks/work_precision.py --quick
+# accuracy against independent references (benchmarks/README.md)
+$PY benchmarks/point_reference.py                    # serial, scipy Radau
+$MPI $PY benchmarks/mms.py
+$PY benchmarks/absorbing_reflection.py
+$PY benchmarks/peer/score.py
+$PY benchmarks/peer/score.py --ranks 1 --tag serial --note "fricfem as in this tree, on 1 rank"
+$PY benchmarks/peer/report.py
+$PY benchmarks/rigid_convergence.py
+$MPI $PY benchmarks/experiment_dt.py
+# robustness
+$PY benchmarks/faults.py
+$PY benchmarks/bad_input.py
+$PY benchmarks/rank_reproducibility.py

@@ -17,7 +17,12 @@
 #    ``results/modemap_full32.json``).
 # 3. **Case I end to end, warm**: ``mpirun -n 2 fricfem run case1`` (median of
 #    ``--warm-repeats`` after one warm-up), with its ``summary.json`` split.
-# 4. **Start-up**: ``python -X importtime`` of a run: import time per package;
+# 4. **The loop's outputs** (``benchmarks/loop_cost.py`` under ``mpirun -n 2``):
+#    Case I on the reference mesh, the time loop with its default outputs per
+#    step, split by part (``summary.json`` ``loop_cost``), against a bare
+#    ``K.mult`` on the same mesh timed after each run; with and without the
+#    three field snapshots.
+# 5. **Start-up**: ``python -X importtime`` of a run: import time per package;
 #    ``import gmsh`` alone (what a run no longer imports); ``mpirun -n 2 python
 #    -c 'from mpi4py import MPI'``.
 #
@@ -25,7 +30,7 @@
 #
 # writes ``benchmarks/results/sweep_speed.{json,md}`` and the maps' figures
 # ``results/modemap_{default8,full32,adaptive32}.png``.  ``--only`` runs some
-# parts (map8, adaptive, case1, startup; full: only read the full map); the
+# parts (map8, adaptive, case1, loop, startup; full: only read the full map); the
 # parts not run keep their last results, each with its date and code.
 # ``--smoke``: a 2 × 2 map on the coarse mesh and the start-up part, into
 # ``results/smoke/``.
@@ -140,6 +145,20 @@ def map8(root: Path, ranks: int, smoke: bool) -> dict:
 # ## 2. The adaptive 32 × 32 map against the full one
 
 
+#: points of the full map recomputed with the current code and compared bit for bit
+#: (the pulse/crack and mixed regions, a point beside the recomputed ones, a corner)
+RECHECK = ("s0.9_v1", "s13.29_v35.51", "s15.03_v40")
+
+
+def recheck(full_dir: Path, root: Path) -> dict:
+    """benchmarks/recheck_points.py on :data:`RECHECK` (2 ranks, one point per rank)."""
+    path = root / "recheck.json"
+    m = timed(mpirun(2, [sys.executable, HERE / "recheck_points.py", full_dir, "--sigma0", FULL32[0], "--v-imp",
+                         FULL32[1], "--points", ",".join(RECHECK), "--json", path]))
+    return {"points": json.loads(path.read_text()), "load_before": m["load_before"],
+            "date": time.strftime("%Y-%m-%d %H:%M")}
+
+
 def full_map(full_dir: Path | None, load_log: Path | None = None) -> dict | None:
     """The full 32 × 32 map: from its sweep directory (and kept, small, in
     results/modemap_full32.json), or from that file.  ``load_log``: lines
@@ -208,7 +227,23 @@ def case1(root: Path, ranks: int, repeats: int) -> dict:
                                for k in ("setup", "time_loop", "output", "total")}}
 
 
-# ## 4. Start-up
+# ## 4. The loop's outputs
+
+
+def loop(root: Path, ranks: int, repeats: int) -> dict:
+    out = {}
+    for n, (name, sets) in [(n, v) for n in sorted({ranks, 1}, reverse=True)
+                            for v in (("default outputs", []), ("no field snapshots", ["--set", "output.fields=[]"]))]:
+        name = f"{name}, {n} rank{'s' if n > 1 else ''}"
+        path = root / f"loop_cost_{n}_{len(sets)}.json"
+        cmd = [sys.executable, HERE / "loop_cost.py", "--repeats", repeats, "--json", path, *sets]
+        m = timed(mpirun(n, [str(c) for c in cmd]))
+        out[name] = {**json.loads(path.read_text()), "load_before": m["load_before"], "load_after": m["load_after"],
+                     "others_cpu_share": m["others_cpu_share"]}
+    return out
+
+
+# ## 5. Start-up
 
 
 def import_times(lines) -> dict:
@@ -312,6 +347,19 @@ def markdown(res: dict) -> str:
                   + (". 1-minute load average while it ran: median {median:.1f} (min {min:.1f}, max {max:.1f}, "
                      "{samples} samples).\n".format(**full["load_1min_while_running"])
                      if "load_1min_while_running" in full else ".\n")]
+        redo = [c for c in full["calls"][1:] if c["computed"]]
+        if redo:
+            lines.append("Later calls recomputed points with the code of their day: "
+                         + "; ".join(f"{c['finished']}: {c['computed']} points in {c['wall_s']:.0f} s" for c in redo)
+                         + " (`--rerun-stopped`: the points an earlier watchdog had stopped at a slip rate above "
+                           "c_l, which it now reports instead of stopping).\n")
+        rc = full.get("recheck")
+        if rc:
+            lines.append(f"Rechecked {rc['date']} (`benchmarks/recheck_points.py`): "
+                         + ", ".join(f"{p['key']} {'bit-identical' if p['bit_identical'] else 'DIFFERS: ' + str(p['differ'])}"
+                                     f" ({p['datasets']} datasets of interface.h5; label {p['label_now']})"
+                                     for p in rc["points"])
+                         + " — the points computed before are those of the current code.\n")
     if ad:
         lines += [f"## Adaptive 32 × 32 map {_when(ad)}\n",
                   f"`--adaptive --coarse {ad['coarse']}`: {ad['scenes']} scenes in {len(ad['rounds'])} rounds "
@@ -321,10 +369,27 @@ def markdown(res: dict) -> str:
                      if "agreement_with_full" in ad else "") + ".\n"]
         if full:
             lines.append(f"Scenes: {ad['scenes']} of {full['scenes']} ({100 * ad['scenes'] / full['scenes']:.0f} %); "
-                         f"wall time {ad['sweep_wall_s'] / full['wall_s_all_calls']:.2f} × the full map's. The full map "
-                         "and this one ran on the same code (the commit named above), under about the same load. "
+                         f"wall time {ad['sweep_wall_s'] / full['wall_s_all_calls']:.2f} × the full map's (which ran under "
+                         "another load). "
                          "Points that differ [i, j, full, adaptive]: "
                          + ", ".join(f"[{i}, {j}, {a}, {b}]" for i, j, a, b in ad.get("disagree", [])) + ".\n")
+    lp = res.get("loop")
+    if lp:
+        lines += [f"## The time loop and its outputs {_when(lp)}\n",
+                  "`mpirun -n 2 .venv/bin/python benchmarks/loop_cost.py` (Case I, reference mesh; µs per step, "
+                  "median of the runs, the steps after the first; summary.json `loop_cost`):\n",
+                  "| outputs, ranks | bare MatMult | step | energy | stations | watch | snapshots | fields | flush | "
+                  "loop (wall) | loop / MatMult | step / MatMult | loads |", "|---|" + "---|" * 12]
+        for name, x in lp.items():
+            if not isinstance(x, dict) or "median" not in x:
+                continue
+            m = x["median"]
+            loads = ", ".join(f"{r['load_before']:.1f}" for r in x["runs"])
+            lines.append(f"| {name} | {m['matmult_us']:.0f} | {m['step']:.0f} | {m['energy']:.1f} | "
+                         f"{m['stations']:.1f} | {m['watch']:.1f} | {m['snapshots']:.1f} | {m['fields_gauges']:.1f} | "
+                         f"{m['flush']:.1f} | {m['wall']:.0f} | **{m['loop_over_matmult']:.2f}** | "
+                         f"{m['step_over_matmult']:.2f} | {loads} |")
+        lines.append("")
     c1 = res.get("case1")
     if c1:
         sp = c1["median_split_s"]
@@ -356,7 +421,7 @@ def markdown(res: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--full", type=Path, help="the full 32 × 32 map's sweep directory (else results/modemap_full32.json)")
-    ap.add_argument("--only", default="map8,adaptive,case1,startup",
+    ap.add_argument("--only", default="map8,adaptive,case1,loop,startup",
                     help="parts to run, comma-separated (also 'full': only read the full map of --full)")
     ap.add_argument("--full-load", type=Path, help="load averages logged while the full map ran (one line a minute)")
     ap.add_argument("--ranks", type=int, default=2)
@@ -383,14 +448,27 @@ def main(argv=None) -> int:
     stamp = {"date": time.strftime("%Y-%m-%d %H:%M"), "commit": commit, "cpus": os.cpu_count(),
              "ranks": args.ranks, "code": str(Path(fricfem.__file__).parent)}
     res.update(stamp)
+    def save():  # after every part: a later part's failure keeps the earlier ones
+        (RESULTS / f"{name}.json").write_text(json.dumps(res, indent=1, default=str))
+        (RESULTS / f"{name}.md").write_text(markdown(res))
+
     if "map8" in parts:
         res["map8"] = {**map8(args.work, args.ranks, args.smoke), **stamp}
+        save()
     if "full" in parts or "adaptive" in parts:
         res["full32"] = full_map(args.full, args.full_load)
+        if args.full is not None and res["full32"] is not None:
+            res["full32"]["recheck"] = recheck(args.full, args.work)
+        save()
     if "adaptive" in parts:
         res["adaptive"] = {**adaptive(args.work, args.ranks, res["full32"], args.coarse), **stamp}
+        save()
     if "case1" in parts:
         res["case1"] = {**case1(args.work, args.ranks, args.warm_repeats), **stamp}
+        save()
+    if "loop" in parts:
+        res["loop"] = {**loop(args.work, args.ranks, 3), **stamp}
+        save()
     if "startup" in parts:
         res["startup"] = {**startup(args.work, args.smoke), **stamp}
     (RESULTS / f"{name}.json").write_text(json.dumps(res, indent=1, default=str))

@@ -65,6 +65,22 @@ class Job(NamedTuple):
         return json.loads(json.dumps(self.scene.raw if self.identity is None else self.identity))
 
 
+#: Top-level scene keys that document a run without changing it: a stored run whose
+#: inputs differ only there is the same run (a scene's description may be reworded).
+NOT_INPUT = ("description",)
+
+
+def same_identity(stored_identity, now) -> bool:
+    """Whether a stored identity names the same run as ``now`` (both JSON-normalised):
+    equal, or (scene tables) equal but for the documentation keys :data:`NOT_INPUT`."""
+    if stored_identity == now:
+        return True
+    if not (isinstance(stored_identity, dict) and isinstance(now, dict)):
+        return False
+    return {k: v for k, v in stored_identity.items() if k not in NOT_INPUT} == \
+        {k: v for k, v in now.items() if k not in NOT_INPUT}
+
+
 def expected_cost(scene) -> float:
     """Relative cost of a run (heavier first).
 
@@ -92,13 +108,14 @@ def status(job: Job) -> str:
 
     Finished: ``job.json`` is there and the run's ``summary.json`` says it is
     complete or was stopped by the watchdog (a directory whose run was killed
-    or damaged since is run again)."""
+    or damaged since is run again).  Same identity: :func:`same_identity` (a
+    reworded scene description does not make a run stale)."""
     from .output.rundir import read_summary
 
     s = stored(job)
     if s is None or not _finished(read_summary(job.dir)):
         return "todo"
-    return "done" if s.get("identity") == job.ident() else "stale"
+    return "done" if same_identity(s.get("identity"), job.ident()) else "stale"
 
 
 def deal(jobs, groups: int) -> list:

@@ -126,9 +126,10 @@ def _scenes(args) -> int:
     if args.keys:
         print(scene_mod.describe_keys())
         return 0
-    for name in scene_mod.shipped():
-        scene = scene_mod.load(name)
-        print(f"{name:12s} {scene.description}")
+    names = list(scene_mod.shipped())
+    width = max(map(len, names), default=0)
+    for name in names:
+        print(f"{name:{width}s}  {scene_mod.load(name).description}")
     return 0
 
 

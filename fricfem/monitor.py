@@ -100,8 +100,7 @@ def watchdog_code(points, energy, limits: dict) -> int:
     """
     if not limits["enabled"]:
         return 0
-    if not (np.isfinite(points.Ts).all() and np.isfinite(points.Tn).all()
-            and np.isfinite(points.slip_rate).all()):
+    if not (_finite(points.Ts) and _finite(points.Tn) and _finite(points.slip_rate)):
         return 1
     if energy is not None:
         if not all(np.isfinite(energy[k]) for k in ("kinetic", "strain", "external", "interface_work",
@@ -114,6 +113,12 @@ def watchdog_code(points, energy, limits: dict) -> int:
         if abs(energy["balance_error"]) > eps * scale:
             return 4
     return 0
+
+
+def _finite(a: np.ndarray) -> bool:
+    """Every value of ``a`` finite: its sum is (a NaN or an infinity makes the sum
+    non-finite), checked value by value only then (a sum can overflow)."""
+    return bool(np.isfinite(a.sum())) or bool(np.isfinite(a).all())
 
 
 def _watchdog_message(code: int, t: float, model, limits) -> str:
@@ -178,6 +183,15 @@ class Spikes:
                 "above_threshold": first is not None, "first_above": first, "steps_above": self.steps_above}
 
 
+#: the parts of the time loop timed in summary.json's ``loop_cost``: the step
+#: (``step``: the steps without energies; ``energy``: what the energy evaluation
+#: adds to a step, estimated as the energy steps' time beyond that of as many
+#: steps without), and after each step the monitor's parts: the stations'
+#: rows, the watch (the one reduction: tip, initiation, watchdog, spikes, the
+#: energies' row), interface snapshots, field snapshots and gauges, flushes
+#: (the rows' gather and write, the summary so far)
+LOOP_PARTS = ("step", "step_with_energy", "stations", "watch", "snapshots", "fields_gauges", "flush")
+
 #: interface rows between two flushes: a kill loses at most this many rows (and
 #: ``output.flush_every`` seconds) of a run, whatever the wall time per row
 FLUSH_ROWS = 10
@@ -219,23 +233,31 @@ class Monitor:
         self.ended_early = None
         self.seconds = 0.0  # wall time spent here [s]
         self.glob = np.full(6, -1.0)
+        self.local = np.empty(6)  # this rank's part of the step's one reduction
+        self.background = None  # the runner's writer of the periodic summary (fricfem.runner.Background)
         self.spikes = Spikes(scene.watchdog["max_slip_rate"], model.comm)  # reported, never a stop
         self.t_loop0 = time.perf_counter()  # when the loop started (reset by the caller)
         self.first_step_s = None  # wall time of the first step, JIT compilation included [s]
+        self.cost = dict.fromkeys(LOOP_PARTS, 0.0)  # wall time per part of the loop [s] (steps 2..n)
+        self.energy_steps = 0  # steps (after the first) that also took the energies
 
     def observe(self, st, e) -> str | None:
-        """Bookkeeping after the step that left ``st`` at t^{n+1} (energies ``e`` at t^n or None)."""
-        t0 = time.perf_counter()
+        """Bookkeeping after the step that left ``st`` at t^{n+1} (energies ``e`` at t^n or None);
+        the wall time of each part goes to :attr:`cost` (:data:`LOOP_PARTS`)."""
+        clock, cost = time.perf_counter, self.cost
+        t0 = clock()
         scene, p, x1 = self.scene, self.model.interface.points, self.model.interface.geometry.x1
         self.rec.station_step(st.t_interface)
-        sliding = p.slip_rate > 0
-        local = np.array([x1[sliding].max() if sliding.any() else -1.0,
-                          -x1[sliding].min() if sliding.any() else -np.inf,
-                          1.0 if self.stop_requested else 0.0,
-                          1.0 if (self.comm.rank == 0 and time.perf_counter() - self.last_flush
-                                  > scene.output["flush_every"]) else 0.0,
-                          watchdog_code(p, e if e is not None else self.end.get("energy"), scene.watchdog),
-                          float(p.slip_rate.max()) if p.slip_rate.size else 0.0])
+        t1 = clock()
+        cost["stations"] += t1 - t0
+        vmax = float(p.slip_rate.max()) if p.slip_rate.size else 0.0
+        local = self.local
+        local[:] = (-1.0, -np.inf, 1.0 if self.stop_requested else 0.0,
+                    1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0,
+                    watchdog_code(p, e if e is not None else self.end.get("energy"), scene.watchdog), vmax)
+        if vmax > 0:  # some point slides (a NaN: the watchdog stops the run in this step)
+            xs = x1[p.slip_rate > 0]
+            local[0], local[1] = xs.max(), -xs.min()
         glob = self.glob
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         self.spikes.observe(glob[5], st.t_interface, p.slip_rate, x1)
@@ -247,18 +269,25 @@ class Monitor:
         if e is not None:
             self.last_energy = e
             self.rec.energy(e)
+        t2 = clock()
+        cost["watch"] += t2 - t1
         if (st.n - 1) % self.every == 0:  # the interface at t = 0, every, 2 every, ... steps
             self.rec.snapshot(st.t_interface)
             self.rows_pending += 1
+        t3 = clock()
+        cost["snapshots"] += t3 - t2
         if st.n in self.field_steps and self.writer is not None:
             self.writer.write(st)
         if self.gauges is not None:
             self.gauges.observe(st)
+        t4 = clock()
+        cost["fields_gauges"] += t4 - t3
         if glob[3] > 0 or self.rows_pending >= FLUSH_ROWS:
             self.flush(st)
-            self.last_flush = time.perf_counter()
+            self.last_flush = clock()
             self.rows_pending = 0
-        self.seconds += time.perf_counter() - t0
+            cost["flush"] += self.last_flush - t4
+        self.seconds += clock() - t0
         return self._stop(st, glob)
 
     def _stop(self, st, glob) -> str | None:

@@ -19,7 +19,9 @@ line, and the outputs keep what was flushed (:func:`_guarded`).
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import signal
 import sys
 import threading
@@ -31,12 +33,12 @@ from mpi4py import MPI
 
 from . import scene as scene_mod
 from .model.build import build_model
-from .monitor import Monitor, Progress
-from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE
+from .monitor import LOOP_PARTS, Monitor, Progress
+from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE, SUMMARY_FILE
 from .output.gauges import GAUGES_FILE, GaugeWriter
 from .output import directory
 from .output.directory import RunDirError
-from .output.record import whole, write_record
+from .output.record import EVIDENCE_FILE, jsonable, split, whole, write_record
 from .output.recorder import Recorder, planned_rows
 from .scene import Scene, SceneError
 from .scene.validate import check_identifier
@@ -61,6 +63,94 @@ def prepare_outdir(out: Path, comm, overwrite: bool):
     if problem:
         raise RunDirError(problem)
     return lock
+
+
+def record_texts(out: Path, record: dict) -> list:
+    """[(path, JSON text)] of the run's record as :func:`write_record` writes it
+    (evidence first, then the summary)."""
+    summary, evidence = split(record)
+    texts = [(out / EVIDENCE_FILE, json.dumps(jsonable(evidence), indent=2))] if evidence else []
+    return texts + [(out / SUMMARY_FILE, json.dumps(jsonable(summary), indent=2))]
+
+
+def _replace_files(texts) -> None:
+    """Each (path, text) written to a temporary name and renamed over the path."""
+    for path, text in texts:
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+        try:
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
+
+
+class Background:
+    """Rank 0's periodic ``summary.json``, its file written by a thread while the
+    loop goes on: replacing a file waits for the disk (~2 ms on ext4, little of it
+    CPU), ~40 steps' worth of waiting per flush on the reference mesh otherwise;
+    the text is made in the run's thread (the thread only makes system calls,
+    which release Python's lock).  One thread for the run, started with the first
+    write; a write submitted while another waits replaces it (the newer summary
+    supersedes the older).  :meth:`wait` returns once nothing is pending; it and
+    :meth:`submit` raise, in the run's thread, the error of a write that failed
+    (so a full disk still ends the run with its message)."""
+
+    def __init__(self):
+        self.cond = threading.Condition()
+        self.pending = None
+        self.busy = False
+        self.error = None
+        self.thread = None
+        self.closing = False
+
+    def submit(self, fn, *args) -> None:
+        self._raise()
+        with self.cond:
+            self.pending = (fn, args)
+            self.cond.notify_all()
+        if self.thread is None:
+            self.thread = threading.Thread(target=self._work, daemon=True, name="fricfem-summary")
+            self.thread.start()
+
+    def _work(self) -> None:
+        while True:
+            with self.cond:
+                while self.pending is None and not self.closing:
+                    self.cond.wait()
+                if self.pending is None:  # closing, nothing left
+                    return
+                (fn, args), self.pending, self.busy = self.pending, None, True
+            try:
+                fn(*args)
+            except BaseException as err:  # raised in the run's thread
+                self.error = err
+            with self.cond:
+                self.busy = False
+                self.cond.notify_all()
+
+    def wait(self) -> None:
+        with self.cond:
+            while self.pending is not None or self.busy:
+                self.cond.wait()
+        self._raise()
+
+    def close(self) -> None:
+        """:meth:`wait`, then end the thread (a sweep runs many scenes in one process)."""
+        try:
+            self.wait()
+        finally:
+            with self.cond:
+                self.closing = True
+                self.cond.notify_all()
+            if self.thread is not None:
+                self.thread.join()
+                self.thread = None
+
+    def _raise(self) -> None:
+        if self.error is not None:
+            err, self.error = self.error, None
+            raise err
 
 
 def _check_step(scene: Scene, model, comm) -> None:
@@ -118,31 +208,41 @@ def n_steps(model, t_end: float) -> int:
     return int(math.floor(t_end / model.dt + 1e-9))
 
 
-def _steps(model, state, t_end: float, energy_every: int, end: dict):
+def _steps(model, state, t_end: float, energy_every: int, monitor: Monitor):
     """:func:`fricfem.step.evolve` that also takes the energies in the last step:
     yields ``(state, energies on the cadence or None)``; the last step's energies
-    (at t^n of that step, the last time the energies can be had) go to ``end["energy"]``."""
+    (at t^n of that step, the last time the energies can be had) go to ``monitor.end["energy"]``.
+    The wall time of each step goes to ``monitor.cost["step"]`` or, for a step that
+    took the energies, ``["step_with_energy"]`` (counted in ``monitor.energy_steps``)."""
     n_end = n_steps(model, t_end)
+    clock, cost, end = time.perf_counter, monitor.cost, monitor.end
     while state.n < n_end:
         cadence = bool(energy_every) and state.n % energy_every == 0
         e = {} if cadence or state.n == n_end - 1 else None
+        t0 = clock()
         step(model, state, e)
+        cost["step" if e is None else "step_with_energy"] += clock() - t0
+        monitor.energy_steps += e is not None
         if state.n == n_end and e is not None:
             end["energy"] = e
         yield state, (e if cadence else None)
 
 
 def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_step) -> str | None:
-    """Step to the end time or until the monitor says stop; returns why it stopped (None: the end)."""
+    """Step to the end time or until the monitor says stop; returns why it stopped (None: the end).
+    The first step (with the kernels' compilation or cache load) is timed alone
+    (``monitor.first_step_s``); ``monitor.cost`` times the parts of the others."""
     stop = None
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, lambda *_: setattr(monitor, "stop_requested", True))
     try:
-        for st, e in _steps(model, state, scene.t_end, scene.output["energy_every"], monitor.end):
-            if monitor.first_step_s is None:
-                monitor.first_step_s = time.perf_counter() - monitor.t_loop0
+        for st, e in _steps(model, state, scene.t_end, scene.output["energy_every"], monitor):
             stop = monitor.observe(st, e)
+            if monitor.first_step_s is None:  # the parts are timed from the second step on
+                monitor.first_step_s = time.perf_counter() - monitor.t_loop0
+                monitor.cost.update(dict.fromkeys(monitor.cost, 0.0))
+                monitor.energy_steps = 0
             if on_step is not None:
                 on_step(st)
             progress.update(st.t, monitor.tip_text())
@@ -152,6 +252,32 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
     return stop
+
+
+def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
+    """summary.json's ``loop_cost``: the time loop's wall time per step [µs] by part
+    (:data:`fricfem.monitor.LOOP_PARTS`), over the steps after the first, on rank 0.
+
+    ``energy``: what the energy evaluations added to their steps (their steps' time
+    beyond as many steps without); ``step``: the rest of the steps' time; then the
+    monitor's parts; ``outputs``
+    all but the step; ``total`` their sum; ``wall``: the loop's measured wall time
+    (``loop_wall`` [s], the first step excluded) per step, the parts and what is
+    not in them (the progress line)."""
+    c, n = monitor.cost, steps - 1
+    if n < 1:
+        return {"steps": max(n, 0)}
+    ne = monitor.energy_steps
+    plain = c["step"] / (n - ne) if n > ne else c["step_with_energy"] / n
+    energy = max(c["step_with_energy"] - plain * ne, 0.0)
+    parts = {"step": c["step"] + c["step_with_energy"] - energy, "energy": energy,
+             **{k: c[k] for k in LOOP_PARTS[2:]}}
+    total = sum(parts.values())
+    return {"unit": "µs of wall-clock time per step (rank 0), the mean over the steps after the first",
+            "steps": n, "energy_steps": ne, **{k: 1e6 * v / n for k, v in parts.items()},
+            "outputs": 1e6 * (total - parts["step"]) / n, "total": 1e6 * total / n,
+            "wall": 1e6 * (loop_wall - (monitor.first_step_s or 0.0)) / n,
+            "outputs_share": (total - parts["step"]) / total if total > 0 else 0.0}
 
 
 def _guarded(comm, out: Path, fn):
@@ -220,13 +346,16 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     if comm.rank == 0:
         write_record(out, summary)
 
+    background = Background()
+
     def flush(st):
         rec.flush()
         if monitor.gauges is not None:
             monitor.gauges.flush()
-        summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation)
-        if comm.rank == 0:
-            write_record(out, summary)
+        summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation,
+                       slip_rate_spike=monitor.spikes.report())
+        if comm.rank == 0:  # the text now, the files while the loop goes on (a rename waits for the disk)
+            background.submit(_replace_files, record_texts(out, summary))
 
     state = State(model, skip_quiet=scene.skip_quiet)
     if model.bodies is not None:  # the projectile moves at t = 0
@@ -234,17 +363,20 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
 
         launch(model, state)
     monitor = Monitor(scene, model, rec, writer, every, flush)
+    monitor.background = background
     if scene.output["gauges"]:
         monitor.gauges = GaugeWriter(out / GAUGES_FILE, scene, model)
         monitor.gauges.observe(state)  # the state at t = 0
     progress = Progress(scene.t_end, enabled=(comm.rank == 0 and not quiet))
     monitor.t_loop0 = time.perf_counter()
     stop = _loop(model, state, scene, monitor, progress, on_step)
-    t_loop = time.perf_counter() - monitor.t_loop0 - monitor.seconds
-    progress.update(state.t, force=True)
+    loop_wall = time.perf_counter() - monitor.t_loop0
+    t_loop = loop_wall - monitor.seconds
+    progress.update(state.t, monitor.tip_text(), force=True)
     progress.close()
     return _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
-                   {"setup": t_setup, "first_step_incl_jit": monitor.first_step_s or 0.0, "time_loop": t_loop},
+                   {"setup": t_setup, "first_step_incl_jit": monitor.first_step_s or 0.0, "time_loop": t_loop,
+                    "time_loop_with_outputs": loop_wall},
                    t_start)
 
 
@@ -252,6 +384,7 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     """Flush and close the outputs, diagnose, write the final summary (all ranks get it)."""
     t1 = time.perf_counter()
     rec.flush()
+    monitor.background.close()  # the last periodic summary is on disk before the final one
     if writer is not None:
         writer.close()
     if monitor.gauges is not None:
@@ -277,6 +410,7 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     output_s = monitor.seconds + time.perf_counter() - t1
     summary["wall_s"] = {**wall, "output": output_s, "total": time.perf_counter() - t_start}
     summary["us_per_step"] = 1e6 * wall["time_loop"] / max(state.n, 1)
+    summary["loop_cost"] = loop_cost(monitor, state.n, wall["time_loop_with_outputs"])
     if comm.rank == 0:
         write_record(out, summary)
     return comm.bcast(whole(summary) if comm.rank == 0 else None, root=0)

@@ -345,7 +345,8 @@ def _todo(spec: dict, select=None) -> tuple:
         st = batch.status(p.job)
         if st == "stale":
             stale.append((p, _diff(batch.stored(p.job)["identity"], p.job.ident())))
-        if st == "todo" or (st == "stale" and spec["overwrite"]):
+        if st == "todo" or (st == "stale" and spec["overwrite"]) or \
+                (st == "done" and spec.get("rerun_stopped") and read_summary(p.dir).get("watchdog")):
             todo.append(p)
     if stale and not spec["overwrite"]:
         p, why = stale[0]
@@ -386,7 +387,8 @@ def run_round(pool, spec: dict, log, select=None, note: str = "") -> tuple:
 
 def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, variants=False,
           overwrite=False, quiet=False, comm=MPI.COMM_WORLD, ranks_per_scene: int = 1,
-          adaptive: tuple | None = None, reuse: bool = True, planned=None) -> dict | None:
+          adaptive: tuple | None = None, reuse: bool = True, planned=None,
+          rerun_stopped: bool = False) -> dict | None:
     """Run (or resume) the map(s) (collective on ``comm``).
 
     ``adaptive``: (coarse Σ0 values, coarse V_imp values) to start an adaptive
@@ -395,6 +397,8 @@ def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, v
     (:mod:`fricfem.model.reuse`; False builds each afresh, for comparison).
     ``planned``: ``plan(...)`` of every point with these arguments, if done
     already (rank 0 uses it instead of loading every scene again).
+    ``rerun_stopped``: also recompute the complete points the watchdog stopped
+    (their inputs are the same, but the code that judged them may not be).
     Returns ``{"maps": {map name: modemap.json document}, "wall_s"}`` on every
     rank.  Raises :class:`SceneError` on every rank, before any
     run, when an input is bad or (without ``overwrite``) a complete point in
@@ -403,6 +407,7 @@ def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, v
     t0 = time.perf_counter()
     spec = {"base": base, "sigma0": tuple(sigma0_mpa), "v_imp": tuple(v_imp), "out": Path(out),
             "sets": list(sets or ()), "preset": preset, "variants": variants, "overwrite": overwrite,
+            "rerun_stopped": rerun_stopped,
             "planned": planned if comm.rank == 0 else None}
     log = _Log(spec["out"] / "sweep.log", comm.rank, quiet)
     with batch.Pool(comm, ranks_per_scene, reuse=reuse) as pool:

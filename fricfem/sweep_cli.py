@@ -56,6 +56,9 @@ def parser(comm=MPI.COMM_WORLD) -> argparse.ArgumentParser:
                    help="also the maps with C_n, C_s × 10 (DIR/stiff_x10) and ÷ 10 (DIR/stiff_div10)")
     p.add_argument("--overwrite", action="store_true",
                    help="recompute complete points whose stored inputs differ from this sweep's")
+    p.add_argument("--rerun-stopped", action="store_true",
+                   help="recompute the complete points the watchdog stopped (same inputs; e.g. after a change "
+                        "of the watchdog's code)")
     p.add_argument("--ranks-per-scene", type=int, default=1, metavar="K",
                    help="run each point on K ranks (K divides the number of ranks; default 1)")
     p.add_argument("--no-reuse", action="store_true",
@@ -136,7 +139,7 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> int:
         planned = _check_cost(args, s, v, comm)
         res = sweep(args.scene, s, v, args.out, args.set, args.preset, args.label, args.variants,
                     args.overwrite, args.quiet, comm, args.ranks_per_scene, adaptive=coarse,
-                    reuse=not args.no_reuse, planned=planned)
+                    reuse=not args.no_reuse, planned=planned, rerun_stopped=args.rerun_stopped)
     except SceneError as err:
         if comm.rank == 0:
             print(f"fricfem sweep: error: {err}", file=sys.stderr)

@@ -44,11 +44,7 @@ def test_api_tour_demo(comm, tmp_dir_shared, clean_laws, monkeypatch):
     assert friction.LAWS["coulomb"].name == "coulomb"
     mine = fricfem.open_run(out / "case1_v10_coulomb")
     assert mine.summary["input"]["friction"]["law"] == "coulomb"
-    sliding = mine.slip_rate > 0
-    assert sliding.sum() > 100
-    ratio = np.abs(mine.shear_traction[sliding]) / mine.normal_traction[sliding]
-    assert np.allclose(ratio, 0.5, rtol=1e-12, atol=0)
-    assert np.all(np.abs(mine.shear_traction[~sliding]) <= 0.5 * mine.normal_traction[~sliding] * (1 + 1e-12))
+    _coulomb_holds(mine, 0.5, min_sliding=100, rtol=1e-12)
     if comm.rank == 0:
         result = json.loads((out / "api_tour.json").read_text())
         assert result["coulomb_mu_0.5"]["sliding_Ts_over_Tn"] == pytest.approx([0.5, 0.5], rel=1e-12)
@@ -58,6 +54,16 @@ def test_api_tour_demo(comm, tmp_dir_shared, clean_laws, monkeypatch):
     start = next(i for i, line in enumerate(text) if line.startswith("from fricfem.friction import Law"))
     end = next(i for i, line in enumerate(text) if line.startswith("fricfem.register_law("))
     assert end - start + 1 < 30
+
+
+def _coulomb_holds(run, mu: float, min_sliding: int, rtol: float) -> None:
+    """Coulomb's law in a run's records: |T_s| = μ T_n wherever the interface slides
+    (at ``min_sliding`` samples at least), |T_s| <= μ T_n where it sticks."""
+    sliding = run.slip_rate > 0
+    assert sliding.sum() > min_sliding
+    ratio = np.abs(run.shear_traction[sliding]) / run.normal_traction[sliding]
+    assert np.allclose(ratio, mu, rtol=rtol, atol=0)
+    assert np.all(np.abs(run.shear_traction[~sliding]) <= mu * run.normal_traction[~sliding] * (1 + rtol))
 
 
 @numba.njit
@@ -134,3 +140,47 @@ def test_every_call_docs_api_names_exists():
         if obj is None:
             missing.append(dotted)
     assert not missing, f"docs/api.md names what does not exist: {missing}"
+
+
+@numba.njit
+def _coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
+    trial = Ts + Cs * vs * dt
+    strength = p[0] * Tn1
+    if abs(trial) <= strength:
+        return trial, 0.0, 0.0, 0.0, 1
+    dslip = (abs(trial) - strength) / Cs
+    Ts1 = strength if trial > 0 else -strength
+    return Ts1, dslip / dt, dslip, friction.frictional_work(Ts, Ts1, dslip), 1
+
+
+@numba.njit
+def _coulomb_rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
+    strength = p[0] * Tn1
+    if abs(T_stick) <= strength:
+        return T_stick, 0.0, 0.0, 0.0, 1
+    v = (abs(T_stick) - strength) / Z  # the pair's impedance takes the excess
+    return (strength if T_stick > 0 else -strength), v, v * dt, strength * v * dt, 1
+
+
+@numba.njit
+def _rigid_nan(p, s, T_stick, Z, Tn0, Tn1, dt):
+    return np.nan, 0.0, 0.0, 0.0, 1
+
+
+def test_registered_law_with_a_rigid_verb_runs_on_split_nodes(comm, tmp_dir_shared, clean_laws):
+    """A user's law that gives the optional ``rigid`` verb runs with interface.kind = 'rigid'
+    (its split-node kernel compiled for it), and the law holds at every sliding pair;
+    one without it is refused before anything is built; a broken verb is refused at registration."""
+    with pytest.raises(ValueError, match=r"rigid returned .*every output finite"):
+        fricfem.register_law(_law(name="coulomb_r", advance=_coulomb_advance, rigid=_rigid_nan))
+    fricfem.register_law(_law(name="no_rigid", advance=_coulomb_advance))
+    with pytest.raises(fricfem.scene.SceneError, match=r"law 'no_rigid' has no rigid \(split-node\) form"):
+        fricfem.load_scene("case1", ["friction.law='no_rigid'", "interface.kind='rigid'"])
+    fricfem.register_law(_law(name="coulomb_r", advance=_coulomb_advance, rigid=_coulomb_rigid))
+    scene = fricfem.load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=20.0", "time.end=25e-6",
+                                         "output.fields=[]", "interface.kind='rigid'",
+                                         "friction.law='coulomb_r'", "friction.params.mu=0.3"])
+    fricfem.run(scene, tmp_dir_shared / "rigid_user", overwrite=True)
+    run = fricfem.open_run(tmp_dir_shared / "rigid_user")
+    assert run.summary["input"]["interface"]["kind"] == "rigid"
+    _coulomb_holds(run, 0.3, min_sliding=50, rtol=1e-9)

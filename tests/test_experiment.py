@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 from fricfem.model import bodies, grid
 from fricfem.model.build import build_model
-from fricfem.output.bulk_gauges import Gauges
+from fricfem.output.gauges import LineGauges
 from fricfem.scene import SceneError, load, validate
 from fricfem.step import State, evolve
 
@@ -52,7 +52,7 @@ def _run(scene, comm, lines):
     _, model = build_model(scene, comm)
     st = State(model)
     bodies.launch(model, st)
-    gauges = Gauges(model, lines)
+    gauges = LineGauges(model, lines)
     energies = []
     for s, e in evolve(model, st, scene.t_end, 20):
         gauges.record(s)

@@ -20,7 +20,8 @@ import pytest
 from mpi4py import MPI
 
 from fricfem import load_scene, open_run, runner
-from fricfem.output.gauges import GAUGES_FILE, evaluate, locate, open_gauges
+from fricfem.model.build import build_model
+from fricfem.output.gauges import GAUGES_FILE, LineGauges, evaluate, locate, open_gauges
 from fricfem.scene import SceneError
 
 V_IMP = 10.0
@@ -89,6 +90,49 @@ def test_gauges_on_one_and_two_ranks_are_bit_identical(comm, tmp_dir_shared):
         assert np.array_equal(getattr(a, q), getattr(b, q))
     for q, v in a.data.items():
         assert np.array_equal(v, b.data[q]), q
+
+
+def _line_run(scene, out, comm, lines):
+    """Run ``scene`` with :class:`LineGauges` ``lines`` recorded after every step:
+    (the histories, on every rank; the node lines' x1)."""
+    holder = {}
+
+    def build(sc, c):
+        pm, model = build_model(sc, c)
+        holder["g"] = LineGauges(model, lines)
+        return pm, model
+
+    runner.run_scene(scene, out, comm, quiet=True, build=build, on_step=lambda st: holder["g"].record(st))
+    return comm.bcast(holder["g"].result(), root=0), holder["g"].positions
+
+
+def scene_dt(rows) -> float:
+    return float(rows["t_u"][1] - rows["t_u"][0])
+
+
+def test_line_gauges_in_the_plane_wave(comm, tmp_dir_shared):
+    """A line gauge across the lower plate (x1 ≈ 5 mm, −50 ≤ x2 ≤ −25 mm) in the plane
+    P wave: its mean velocity is the edge's ramp delayed by x1/c_l, its strain across
+    2 mm is −v1/c_l on the plateau; the same bits on one rank and on two."""
+    scene = load_scene("case1", PLANE_WAVE + ["time.end=11e-6", "loading.t_rise=2e-6"])  # clean to 11.7 µs
+    lines = {"sg": (D, -0.05, -0.025, 1e-3)}
+    got, at = _line_run(scene, tmp_dir_shared / "world", comm, lines)
+    one = _line_run(scene, tmp_dir_shared / "self", MPI.COMM_SELF, lines)[0] if comm.rank == 0 else None
+    one = comm.bcast(one, root=0)
+    assert sorted(got) == ["sg.eps11", "sg.v1", "t_u", "t_v"]  # no bodies: no projectile
+    for k in got:
+        assert np.array_equal(got[k], one[k]), k
+    X, Xp, Xm = at["sg"]
+    assert abs(X - D) < 1.5e-3 and Xp > X > Xm
+    mat, ramp = scene.material, scene.pulse.t_rise
+    half = got["t_v"][np.argmax(got["sg.v1"] > 0.5 * V_IMP)]  # the ramp's middle arrives at X / c_l + ramp / 2
+    assert abs(half - (X / mat.c_l + 0.5 * ramp)) < scene_dt(got)
+    plateau = got["t_u"] > X / mat.c_l + ramp + 1e-6
+    assert plateau.sum() >= 5 and np.allclose(got["sg.v1"][plateau], V_IMP, rtol=4e-2)  # the coarse mesh rings
+    assert np.allclose(got["sg.eps11"][plateau], -got["sg.v1"][plateau] / mat.c_l, rtol=2e-2)
+    _, model = build_model(scene, comm)
+    with pytest.raises(ValueError, match="line gauge empty: no node on x1 = .* within x2"):
+        LineGauges(model, {"empty": (D, 0.01, 0.02, 1e-3)})  # above the interface: no lower node
 
 
 def test_locate_interpolates_linear_fields_exactly():

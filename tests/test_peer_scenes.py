@@ -94,10 +94,11 @@ def test_profile_rules_between_parameters():
 
 # Coarse runs (h = 0.4 mm) against the peer's finest: the bounds asserted on the
 # worst rupture-time error [% of t_r] and the worst final-slip error [%]; measured
-# (2 ranks): tpv205_2d rigid 9.9 / 63, elastic 2.8 / 5.6; rsf_aging_2d rigid
-# 6.0 / 30, elastic 3.5 / 2.0 (the rigid kind's errors: docs/interface_kinds.md).
-COARSE_BOUNDS = {("tpv205_2d", "rigid"): (12.0, 80.0), ("tpv205_2d", "elastic"): (4.0, 8.0),
-                 ("rsf_aging_2d", "rigid"): (8.0, 40.0), ("rsf_aging_2d", "elastic"): (5.0, 4.0)}
+# (2 ranks): tpv205_2d rigid 2.00 / 8.9, elastic 2.8 / 5.6; rsf_aging_2d rigid
+# 3.10 / 11.4, elastic 3.5 / 2.0 (the rigid kind's errors: docs/interface_kinds.md;
+# with the rigid verbs' law at the end of the step they were 9.9 / 63 and 6.0 / 30).
+COARSE_BOUNDS = {("tpv205_2d", "rigid"): (3.0, 13.0), ("tpv205_2d", "elastic"): (4.0, 8.0),
+                 ("rsf_aging_2d", "rigid"): (4.5, 16.0), ("rsf_aging_2d", "elastic"): (5.0, 4.0)}
 SLOW = pytest.mark.slow  # rate and state runs longer (40 µs, the implicit solve at every point)
 
 

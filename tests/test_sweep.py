@@ -130,6 +130,40 @@ def test_changed_inputs_are_not_mixed_into_a_map(tmp_dir_shared, comm, capsys):
     assert _modemap(out)["computed"] == ["s6_v20"]
 
 
+def test_a_reworded_description_is_not_stale_and_stopped_points_rerun_on_request(tmp_dir_shared, comm):
+    """A stored point whose inputs differ only in the scene's description is reused;
+    a point the watchdog stopped is reused too, unless --rerun-stopped, which
+    recomputes it alone."""
+    out = tmp_dir_shared / "map"
+    argv = ["case1", "--sigma0", "6,30", "--v-imp", "20", *QUICK, "--set", "time.end=6e-6", "--out", str(out)]
+    assert sweep.main(argv) == 0
+    comm.barrier()
+    if comm.rank == 0:
+        job = out / "points" / "s6_v20" / batch.JOB_FILE
+        doc = json.loads(job.read_text())
+        doc["identity"]["description"] = "an older wording of the scene's description"
+        job.write_text(json.dumps(doc))
+        path = out / "points" / "s30_v20" / "summary.json"
+        s = json.loads(path.read_text())
+        s.update(complete=False, watchdog="watchdog stopped the run at t = 1 µs: (an older watchdog)")
+        path.write_text(json.dumps(s))
+    comm.barrier()
+    before = _summaries(out)
+    assert sweep.main(argv) == 0
+    comm.barrier()
+    doc = _modemap(out)
+    assert doc["computed"] == [] and sorted(doc["reused"]) == ["s30_v20", "s6_v20"]
+    assert [p["label"] for p in doc["points"] if p["key"] == "s30_v20"] == ["diverged"]
+    assert _summaries(out) == before
+    comm.barrier()
+    assert sweep.main(argv + ["--rerun-stopped"]) == 0
+    comm.barrier()
+    doc = _modemap(out)
+    assert doc["computed"] == ["s30_v20"]
+    assert [p["label"] for p in doc["points"] if p["key"] == "s30_v20"] != ["diverged"]
+    assert _summaries(out)["s6_v20"] == before["s6_v20"]
+
+
 def test_variants_write_sub_maps_and_a_combined_figure(tmp_dir_shared, comm):
     out = tmp_dir_shared / "variants"
     argv = ["case1", "--sigma0", "6", "--v-imp", "20", *QUICK, "--variants", "--label", "quick", "--out", str(out)]

@@ -17,8 +17,19 @@ METRICS = (("t_r_pct", "worst |Δt_r| [% of t_r]"), ("slip_pct", "worst |Δ fina
            ("v_peak_pct", "worst |Δ peak slip rate| [%]"))
 GOAL_CPU = 0.5  # fricfem reaches the peer's accuracy at <= this fraction of its CPU
 GOAL_RIGID = 0.5  # % worst rupture-time error of the rigid kind
-#: line styles of the fricfem series by tag (score.py --tag): 1 rank solid, 2 ranks dotted, variants dashed
-LINES = {"serial": "-", "tree": ":", "proposed-serial": "--", "proposed": (0, (1, 3))}
+#: line styles of the fricfem series by tag (score.py --tag): 1 rank solid, 2 ranks dotted, others dashed
+LINES = {"serial": "-", "tree": ":"}
+#: the tags of the tree's own code, in the order the verdicts consult them (1 rank first: the peer's runs are serial)
+TREE_TAGS = ("serial", "tree")
+
+
+def historical(t: dict) -> bool:
+    """A tag kept for comparison only (code no longer in the tree): open markers, no verdicts."""
+    return bool(t.get("historical"))
+
+
+def _name(tag: str) -> str:
+    return "" if tag == "tree" else f" [{tag}]"
 
 
 def series(runs: dict, kind: str) -> list:
@@ -28,18 +39,22 @@ def series(runs: dict, kind: str) -> list:
 
 def cpu_to_reach(points, err: float, metric: str):
     """CPU seconds a fricfem ladder needs to reach error ``err``: (cpu, how).  In cost
-    order, the first run at or below ``err``; if it is the cheapest run, 'at most'
-    its CPU, else the log–log interpolation between it and the run before
-    ('interpolated'); (None, None) if no run reaches ``err``."""
+    order, the first run from which every costlier run is at or below ``err`` too (a
+    ladder that dips below and comes back up has not reached it); if it is the
+    cheapest run, 'at most' its CPU, else the log–log interpolation between it and
+    the run before ('interpolated'); (None, None) if no run reaches ``err``."""
     pts = sorted((r["cpu_s"], r[metric]) for _, r in points)
-    for i, (c1, e1) in enumerate(pts):
-        if e1 <= err:
-            if i == 0:
-                return c1, "at most"
-            c0, e0 = pts[i - 1]
-            f = math.log(e0 / err) / math.log(e0 / e1) if e1 > 0 else 1.0
-            return math.exp(math.log(c0) + f * math.log(c1 / c0)), "interpolated"
-    return None, None
+    i = len(pts)
+    while i > 0 and pts[i - 1][1] <= err:
+        i -= 1
+    if i == len(pts):
+        return None, None
+    c1, e1 = pts[i]
+    if i == 0:
+        return c1, "at most"
+    c0, e0 = pts[i - 1]
+    f = math.log(e0 / err) / math.log(e0 / e1) if e1 > 0 else 1.0
+    return math.exp(math.log(c0) + f * math.log(c1 / c0)), "interpolated"
 
 
 def _fmt(v, d=3):
@@ -55,7 +70,7 @@ def problem_md(name: str, prob: dict) -> list:
     for tag, t in prob["fricfem"].items():
         for kind in ("rigid", "elastic"):
             for h, r in series(t["runs"], kind):
-                L.append(f"| fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind} h = {h * 1e3:g} mm | "
+                L.append(f"| fricfem{_name(tag)} {kind} h = {h * 1e3:g} mm | "
                          f"{r['cpu_s']:.1f} | {r['dofs']:,} dofs, {r['steps']} steps | {r['t_r_us']:.3f} | "
                          f"{r['t_r_pct']:.2f} | {r['t_r_rms_pct']:.2f} | {r['slip_pct']:.2f} | "
                          f"{r['v_peak_pct']:.1f} |")
@@ -67,6 +82,7 @@ def problem_md(name: str, prob: dict) -> list:
                  f"0.0625 mm) differ by {spread['t_r_pct']:.2f} % in rupture time and {spread['slip_pct']:.2f} % in "
                  f"final slip (worst stations); smaller errors are not resolved by this reference.")
     L.append("")
+    L += verdict_md(prob)
     L += goal_md(prob)
     L += stations_md(prob)
     return L
@@ -78,9 +94,11 @@ def _ranks(prob):
 
 def goal_md(prob: dict) -> list:
     L = ["### Against the goal", "", f"CPU fricfem needs to reach each peer run's accuracy (log–log interpolation "
-         f"along its ladder), as a fraction of the peer's CPU (goal ≤ {GOAL_CPU}); and the rigid kind's worst "
-         f"rupture-time error (goal ≤ {GOAL_RIGID} %).", ""]
+         f"along its ladder; reached: that run and every costlier one at or below it), as a fraction of the peer's "
+         f"CPU (goal ≤ {GOAL_CPU}); and the rigid kind's worst rupture-time error (goal ≤ {GOAL_RIGID} %).", ""]
     for tag, t in prob["fricfem"].items():
+        if historical(t):
+            continue
         for kind in ("rigid", "elastic"):
             pts = series(t["runs"], kind)
             if not pts:
@@ -91,10 +109,46 @@ def goal_md(prob: dict) -> list:
                     c, how = cpu_to_reach(pts, p[metric], metric)
                     cells.append(f"{label} ({p[metric]:.2f} %): " + ("not reached" if c is None else
                                  f"{'≤ ' if how == 'at most' else ''}{c / p['cpu_s']:.2f}×"))
-                L.append(f"- fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind}, {what}: " + "; ".join(cells))
+                L.append(f"- fricfem{_name(tag)} {kind}, {what}: " + "; ".join(cells))
             if kind == "rigid":
                 ok = [f"h = {h * 1e3:g} mm: {r['t_r_pct']:.2f} %" for h, r in pts]
-                L.append(f"- fricfem{'' if tag == 'tree' else f' [{tag}]'} rigid worst Δt_r: " + ", ".join(ok))
+                L.append(f"- fricfem{_name(tag)} rigid worst Δt_r: " + ", ".join(ok))
+    return L + [""]
+
+
+def verdict_md(prob: dict) -> list:
+    """The two goals, met or not, with the numbers: for each peer run, the cheapest
+    fricfem of the tree (either kind, 1 or 2 ranks) at its accuracy, as a fraction of
+    its CPU; the rigid kind's worst rupture-time error on each mesh."""
+    tags = [tg for tg in TREE_TAGS if tg in prob["fricfem"]]
+    L = ["### Verdict", ""]
+    for metric, what in METRICS[:2]:
+        cells = []
+        for label, p in prob["peer"].items():
+            best = None
+            for tag in tags:
+                for kind in ("rigid", "elastic"):
+                    c, how = cpu_to_reach(series(prob["fricfem"][tag]["runs"], kind), p[metric], metric)
+                    if c is not None and (best is None or c < best[0]):
+                        best = (c, how, kind, tag)
+            if best is None:
+                cells.append(f"{label} ({p[metric]:.2f} %): not reached — **not met**")
+            else:
+                c, how, kind, tag = best
+                r = c / p["cpu_s"]
+                cells.append(f"{label} ({p[metric]:.2f} %, {p['cpu_s']:.0f} s): {'≤ ' if how == 'at most' else ''}"
+                             f"{r:.2f}× ({kind}, {'1 rank' if tag == 'serial' else '2 ranks'}) — "
+                             + ("**met**" if r <= GOAL_CPU else "**not met**"))
+        L.append(f"- ≤ {GOAL_CPU} × the peer's CPU at its accuracy, {what}: " + "; ".join(cells))
+    for tag in tags:
+        pts = series(prob["fricfem"][tag]["runs"], "rigid")
+        if not pts:
+            continue
+        ok = [(h, r) for h, r in pts if r["t_r_pct"] <= GOAL_RIGID]
+        res = (f"**met** from h = {ok[0][0] * 1e3:g} mm ({ok[0][1]['t_r_pct']:.2f} %, {ok[0][1]['cpu_s']:.1f} CPU s)"
+               if ok else f"**not met** (finest: {pts[-1][1]['t_r_pct']:.2f} %)")
+        L.append(f"- rigid kind, worst Δt_r ≤ {GOAL_RIGID} % ({'1 rank' if tag == 'serial' else '2 ranks'}): {res}; "
+                 + ", ".join(f"{h * 1e3:g} mm {r['t_r_pct']:.2f} %" for h, r in pts))
     return L + [""]
 
 
@@ -102,12 +156,14 @@ def stations_md(prob: dict) -> list:
     """Per-station table of each tag's finest rigid and elastic runs."""
     L = []
     for tag, t in prob["fricfem"].items():
+        if historical(t):
+            continue
         for kind in ("rigid", "elastic"):
             pts = series(t["runs"], kind)
             if not pts:
                 continue
             h, r = pts[-1]
-            L += [f"### Stations: fricfem{'' if tag == 'tree' else f' [{tag}]'} {kind}, h = {h * 1e3:g} mm", "",
+            L += [f"### Stations: fricfem{_name(tag)} {kind}, h = {h * 1e3:g} mm", "",
                   "| x [mm] | t_r [µs] | peer t_r [µs] | Δt_r [µs] | V_peak [m/s] | peer | ΔV_peak [%] | slip [µm] | "
                   "peer | Δslip [%] |", "|---|---|---|---|---|---|---|---|---|---|"]
             for s in r["stations"]:
@@ -135,6 +191,9 @@ def figure(name: str, prob: dict, path: Path) -> None:
                 ax.plot(c, e, style, color="0.3", label=f"SEM2DPACK degree {'4' if degree == 'h' else '8'}")
                 for ci, ei, lab in pts:
                     ax.annotate(lab, (ci, ei), fontsize=7, color="0.3", xytext=(3, 3), textcoords="offset points")
+                    if metric != "v_peak_pct":  # the goal: the same accuracy at half the peer's CPU
+                        ax.plot([GOAL_CPU * ci, ci], [ei, ei], color="0.55", lw=0.7)
+                        ax.plot([GOAL_CPU * ci], [ei], "|", color="0.3", ms=8)
         for tag, t in prob["fricfem"].items():
             for kind, color in (("rigid", "C0"), ("elastic", "C1")):
                 pts = series(t["runs"], kind)
@@ -142,18 +201,20 @@ def figure(name: str, prob: dict, path: Path) -> None:
                     continue
                 c = [r["cpu_s"] for _, r in pts]
                 e = [max(r[metric], 1e-3) for _, r in pts]
-                filled = not tag.startswith("proposed")  # the tree's own code: filled markers
+                filled = not historical(t)  # the tree's own code: filled markers
                 ax.plot(c, e, marker="^" if kind == "rigid" else "v", color=color, mfc=color if filled else "none",
                         ls=LINES.get(tag, "-."), lw=1.6 if "serial" in tag else 0.9,
-                        label=f"fricfem {kind} [{tag}]")
+                        label=f"fricfem {kind} [{tag}]" + (" (historical, not in the tree)" if historical(t) else ""))
                 for (h, _), ci, ei in zip(pts, c, e):
                     ax.annotate(f"{h * 1e3:g}", (ci, ei), fontsize=7, color=color, xytext=(3, -9),
                                 textcoords="offset points")
         if metric == "t_r_pct":
             ax.axhline(GOAL_RIGID, color="C2", lw=0.8, ls=":", label=f"{GOAL_RIGID} % (goal, rigid)")
+        if metric != "v_peak_pct":
+            ax.plot([], [], "|-", color="0.3", lw=0.7, ms=8, label=f"goal: a peer run's error at {GOAL_CPU} × its CPU")
         ax.set(xscale="log", yscale="log", xlabel="CPU seconds (user + system, all ranks)", ylabel=what)
         ax.grid(True, which="both", lw=0.3)
-    axes[0].legend(fontsize=7)
+    axes[0].legend(fontsize=6.5, loc="lower left")
     fig.suptitle(f"{name}: error against SEM2DPACK {prob.get('reference', 'p8_h0.0625mm')} versus CPU "
                  "(fricfem labels: band cell size h in mm)")
     fig.tight_layout()
@@ -173,7 +234,9 @@ def write(doc: dict, out: Path = RESULTS) -> None:
         L.append(f"- `{tag}`: {note}")
     L += ["", "Commands: `score.py` (tag `tree`, 2 ranks); `score.py --ranks 1 --tag serial`; a variant: "
           "`score.py --pythonpath <its source tree> --tag <name> --note <what differs>` (with `--ranks 1` for "
-          "the serial one).  The `proposed` variant and why: docs/interface_kinds.md.", ""]
+          "the serial one).  A tag marked historical in the JSON is code no longer in the tree, kept for "
+          "comparison (open markers, no verdict); the interface kinds and the rigid verbs: "
+          "docs/interface_kinds.md.", ""]
     for name, prob in doc["problems"].items():
         L += problem_md(name, prob)
         figure(name, prob, out / f"peer_{name}.png")

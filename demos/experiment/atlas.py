@@ -4,21 +4,20 @@
 # Writes benchmarks/results/experiment/atlas_<preset>.png: log10 of the slip rate over x1 and t,
 # each panel titled with the projectile speed, Σ0 and the classifier's label.
 
-import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from fricfem import open_run
+sys.path.insert(0, str(Path(__file__).parent))
+import common  # noqa: E402
 
-ap = argparse.ArgumentParser()
-ap.add_argument("--preset", default="reference")
-ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
-ap.add_argument("--work", type=Path, default=Path("runs/experiment_sweep"))
-a = ap.parse_args()
+from fricfem import open_run  # noqa: E402
+
+a = common.options("runs/experiment_sweep").parse_args()
 rows = json.loads((a.out / f"sweep_{a.preset}.json").read_text())["rows"]
 speeds = sorted({r["v_projectile_m_s"] for r in rows})
 sigmas = sorted({r["sigma0_Pa"] for r in rows})

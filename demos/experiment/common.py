@@ -1,6 +1,8 @@
-"""What the experiment demos share: a run of a scene with bulk gauges, and the
+"""What the experiment demos share: a run of a scene with line gauges, and the
 measurements the paper's Section 3 reports, taken the same way for every run.
 
+* :func:`options` — the options every demo here takes (``--preset``, ``--out``,
+  ``--work``);
 * :func:`run` — run a scene (any communicator) with the gauges of
   :data:`LINES` (the struck edge, a strain-gauge position in the specimen) and
   the projectile's momentum and contact force, saved as ``gauges.npz`` next to
@@ -21,8 +23,10 @@ All inputs SI; reports in mm, µs, MPa, m/s.
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
+import logging
 import math
 from pathlib import Path
 
@@ -32,7 +36,7 @@ from mpi4py import MPI
 from fricfem.analysis.fronts import fronts
 from fricfem.analysis.tip import lsq_slope, tip_history, tip_speed
 from fricfem.model.build import build_model
-from fricfem.output.bulk_gauges import Gauges
+from fricfem.output.gauges import LineGauges
 from fricfem.runner import run_scene
 
 #: Line gauges {name: (x1, x2_min, x2_max, h)} [m]: the mean x1 velocity over the
@@ -43,6 +47,18 @@ LINES = {"edge_b": (0.0, -0.025, 0.0, 1e-3), "edge_h": (0.0, -0.0762, 0.0, 1e-3)
          "g10": (0.010, -0.025, 0.0, 1e-3), "g30": (0.030, -0.025, 0.0, 1e-3)}
 #: The tip's mean speed is fitted where it runs from TIP_FROM to TIP_TO [m].
 TIP_FROM, TIP_TO = 0.010, 0.110
+
+
+def options(work: str) -> argparse.ArgumentParser:
+    """A parser with the options every experiment demo takes: ``--preset`` (the mesh),
+    ``--out`` (where the results go) and ``--work`` (its runs, default ``work``);
+    fricfem's per-run log lines are silenced (WARNING)."""
+    logging.getLogger().setLevel(logging.WARNING)
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--preset", default="reference")
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
+    ap.add_argument("--work", type=Path, default=Path(work))
+    return ap
 
 
 def _digest(scene) -> str:
@@ -61,7 +77,7 @@ def run(scene, out: Path, comm=MPI.COMM_WORLD, lines=LINES) -> dict:
 
         def build(sc, c):
             pm, model = build_model(sc, c)
-            holder["g"] = Gauges(model, lines)
+            holder["g"] = LineGauges(model, lines)
             return pm, model
 
         run_scene(scene, out, comm, overwrite=True, quiet=True, build=build,

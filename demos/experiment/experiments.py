@@ -14,9 +14,7 @@
 #
 # Run: `mpirun -n 2 .venv/bin/python demos/experiment/experiments.py [--preset reference]`
 
-import argparse
 import json
-import logging
 import math
 import os
 import sys
@@ -32,12 +30,8 @@ import common  # noqa: E402
 from fricfem import load_scene, open_run  # noqa: E402
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-logging.getLogger().setLevel(logging.WARNING)
-ap = argparse.ArgumentParser()
-ap.add_argument("--preset", default="reference")
+ap = common.options("runs/experiment")
 ap.add_argument("--set", action="append", default=[], help="extra scene overrides, every run")
-ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
-ap.add_argument("--work", type=Path, default=Path("runs/experiment"))
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
 FRAMES = (40e-6, 48e-6, 60e-6)  # Fig. 5's frames

@@ -27,9 +27,7 @@
 # Run: `mpirun -n 2 .venv/bin/python demos/experiment/hypothesis.py [--preset reference] [--no-runs]`
 # Writes benchmarks/results/experiment/hypothesis_<preset>.json and .png.
 
-import argparse
 import json
-import logging
 import sys
 from pathlib import Path
 
@@ -44,14 +42,10 @@ from fricfem import friction, load_scene  # noqa: E402
 from fricfem.friction import povirk_needleman as pn  # noqa: E402
 from fricfem.model.build import build_model  # noqa: E402
 from fricfem.model.bodies import launch  # noqa: E402
-from fricfem.output.bulk_gauges import Gauges  # noqa: E402
+from fricfem.output.gauges import LineGauges  # noqa: E402
 from fricfem.step import State, evolve  # noqa: E402
 
-logging.getLogger().setLevel(logging.WARNING)
-ap = argparse.ArgumentParser()
-ap.add_argument("--preset", default="reference")
-ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
-ap.add_argument("--work", type=Path, default=Path("runs/experiment_hypothesis"))
+ap = common.options("runs/experiment_hypothesis")
 ap.add_argument("--no-runs", action="store_true")
 ap.add_argument("--t-end", type=float, default=48e-6)
 a = ap.parse_args()
@@ -79,7 +73,7 @@ for k in sorted({c[3] for c in CASES.values()}):
     _, model = build_model(scene, comm)
     st = State(model)
     launch(model, st)
-    g = Gauges(model, {"edge_b": common.LINES["edge_b"], "edge_h": common.LINES["edge_h"]})
+    g = LineGauges(model, {"edge_b": common.LINES["edge_b"], "edge_h": common.LINES["edge_h"]})
     rows = []
     for s, _ in evolve(model, st, scene.t_end):
         g.record(s)

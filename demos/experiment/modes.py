@@ -1,8 +1,9 @@
-# # One scene per sliding mode fricfem finds under the experiment's loading
+# # One scene per sliding mode fricfem finds under the experiment's loading (and crack-like under the edge velocity)
 #
 # The scenes `fricfem/scenes/experiment_mode_*.toml` are points of the sweep of
-# `sweep.py` (experiment_42 over projectile speed and Σ0, nothing tuned); each
-# says how it was found.  This script runs each scene (or takes the sweep's run
+# `sweep.py` (experiment_42 over projectile speed and Σ0, nothing tuned);
+# `mode_crack_like.toml` is a point of the edge-velocity mode map (REPRODUCTION.md
+# §5), the mode the experiment's loading never gives; each says how it was found.  This script runs each scene (or takes the sweep's run
 # of the same point: same keys but the name) and shows its slip rate over x1
 # and t with the leading tip and the fronts faster than c_l, next to the
 # classifier's label and reason, the coalescences of slipping regions and the
@@ -11,9 +12,7 @@
 # Run: `mpirun -n 2 .venv/bin/python demos/experiment/modes.py [--preset reference]`
 # Writes benchmarks/results/experiment/modes_<preset>.json and .png.
 
-import argparse
 import json
-import logging
 import math
 import sys
 from pathlib import Path
@@ -28,25 +27,21 @@ import common  # noqa: E402
 from fricfem import load_scene, open_run  # noqa: E402
 from fricfem.analysis.tip import tip_history  # noqa: E402
 
-logging.getLogger().setLevel(logging.WARNING)
-ap = argparse.ArgumentParser()
-ap.add_argument("--preset", default="reference")
-ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
-ap.add_argument("--work", type=Path, default=Path("runs/experiment_modes"))
+ap = common.options("runs/experiment_modes")
 ap.add_argument("--sweep", type=Path, default=Path("runs/experiment_sweep"))
 a = ap.parse_args()
 comm = MPI.COMM_WORLD
 SCENES = ("experiment_mode_pulse", "experiment_mode_pulse_then_crack", "experiment_mode_coalescing",
-          "experiment_mode_supersonic_trailing")
+          "experiment_mode_supersonic_trailing", "mode_crack_like")  # the last: the edge-velocity loading
 
 
 def rundir(name: str) -> Path:
     """The sweep's run of the scene's point when it has the same input but the name, else a new run."""
     scene = load_scene(name, [f"mesh.preset='{a.preset}'"])
-    v, s = scene.experiment.projectile_speed, scene.sigma0
-    sweep = a.sweep / f"v{v:g}_s{s / 1e6:g}"
     same = False
-    if comm.rank == 0 and (sweep / "summary.json").is_file():
+    if scene.experiment is not None:
+        sweep = a.sweep / f"v{scene.experiment.projectile_speed:g}_s{scene.sigma0 / 1e6:g}"
+    if comm.rank == 0 and scene.experiment is not None and (sweep / "summary.json").is_file():
         got = json.loads((sweep / "summary.json").read_text())["input"]
         mine = {k: v for k, v in scene.raw.items() if k not in ("name", "description", "base")}
         same = {k: v for k, v in got.items() if k not in ("name", "description", "base")} == mine
@@ -79,8 +74,10 @@ if comm.rank == 0:
         for f in sf["fronts"]:
             ax.plot(f["x_mm"], f["t_us"], "b-", lw=2)
         sc = s["input"]
+        load = f"{sc['experiment']['projectile_speed']:g} m/s" if "experiment" in sc else \
+            f"edge V_imp = {sc['loading']['v_imp']:g} m/s"
         ax.set(xlabel="x1 [mm]", ylabel="t [µs]",
-               title=f"{name.removeprefix('experiment_mode_')}\n{sc['experiment']['projectile_speed']:g} m/s, "
+               title=f"{name.removeprefix('experiment_mode_').removeprefix('mode_')}\n{load}, "
                      f"Σ0 = {sc['loading']['sigma0'] / 1e6:g} MPa: {s['mode']['label']}")
         ax.title.set_fontsize(8)
     fig.tight_layout()

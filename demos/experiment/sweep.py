@@ -12,9 +12,7 @@
 # Run: `mpirun -n 2 .venv/bin/python demos/experiment/sweep.py [--preset reference]`
 # Writes benchmarks/results/experiment/sweep_<preset><tag>.json and .png.
 
-import argparse
 import json
-import logging
 import math
 import sys
 from pathlib import Path
@@ -28,14 +26,10 @@ import common  # noqa: E402
 
 from fricfem import load_scene, open_run  # noqa: E402
 
-logging.getLogger().setLevel(logging.WARNING)
-ap = argparse.ArgumentParser()
-ap.add_argument("--preset", default="reference")
+ap = common.options("runs/experiment_sweep")
 ap.add_argument("--speeds", default="10,20,32.7,42,50,60")
 ap.add_argument("--sigma0", default="4.7e6,9.4e6,18.8e6")
 ap.add_argument("--t-end", type=float, default=56e-6)
-ap.add_argument("--out", type=Path, default=Path("benchmarks/results/experiment"))
-ap.add_argument("--work", type=Path, default=Path("runs/experiment_sweep"))
 ap.add_argument("--tag", default="", help="suffix of the output files (another grid)")
 a = ap.parse_args()
 world = MPI.COMM_WORLD

@@ -25,8 +25,11 @@ def first_slip(r) -> tuple:
 
 
 def mode(r) -> str:
-    """The classifier's label (``none`` when the run has none)."""
-    return (r.summary.get("mode") or {}).get("label", "none")
+    """The classifier's label, as the run's summary gives it (``unknown`` for a run
+    interrupted before its end); ``unknown`` too when the summary has none (a run
+    stopped by the watchdog, still running, or without diagnostics): no label is
+    not ``none``, which is the classifier's verdict of no sliding."""
+    return (r.summary.get("mode") or {}).get("label") or "unknown"
 
 
 def loading_front(r, t: float, sigma0: float) -> float:

@@ -46,19 +46,34 @@ def _smoke(law: Law) -> None:
         raise ValueError(f"{where}: initial_state returned shape {state.shape}; the law declares "
                          f"{len(law.state)} state variable(s) {law.state}")
     for vs in (0.0, 1e3):  # a sticking and a strongly loaded step
-        s = storage(law, state)
-        try:
-            out = law.advance(p, s, 0.0, 1e6, 1e6, vs, 1e11, 1e-8)
-        except Exception as err:
-            raise ValueError(f"{where}: advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt) failed: "
-                             f"{type(err).__name__}: {err}") from None
-        if not (isinstance(out, tuple) and len(out) == 5):
-            raise ValueError(f"{where}: advance must return (Ts1, slip_rate, dslip, dwork, nsub), got {out!r}")
-        if not all(math.isfinite(float(v)) for v in out) or min(out[1], out[2], out[3]) < 0:
-            raise ValueError(f"{where}: advance returned {out!r}: every output finite, slip rate, slip and work "
-                             f">= 0")
+        _call(where, "advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)", "Ts1", law.advance,
+              (p, storage(law, state), 0.0, 1e6, 1e6, vs, 1e11, 1e-8))
     if math.isnan(float(law.steady_mu(p, 1.0))):
         raise ValueError(f"{where}: steady_mu(p, 1.0) is NaN")
+    if law.rigid is not None:
+        _smoke_rigid(law, p, state, where)
+
+
+def _smoke_rigid(law: Law, p, state, where: str) -> None:
+    """The optional ``rigid`` verb, called as the split-node kernel will: a stuck
+    and a strongly loaded pair (Z = 1e7 Pa s/m, T_n = 1 MPa, dt = 10 ns)."""
+    for T_stick in (0.0, 1e7):
+        _call(where, "rigid(p, s, T_stick, Z, Tn0, Tn1, dt)", "Ts", law.rigid,
+              (p, storage(law, state), T_stick, 1e7, 1e6, 1e6, 1e-8))
+
+
+def _call(where: str, signature: str, first: str, fn, args) -> None:
+    """One call of a law's verb; its outputs checked against the contract (five
+    finite numbers, slip rate, slip and work >= 0), else one ValueError naming it."""
+    verb = signature.split("(")[0]
+    try:
+        out = fn(*args)
+    except Exception as err:
+        raise ValueError(f"{where}: {signature} failed: {type(err).__name__}: {err}") from None
+    if not (isinstance(out, tuple) and len(out) == 5):
+        raise ValueError(f"{where}: {verb} must return ({first}, slip_rate, dslip, dwork, nsub), got {out!r}")
+    if not all(math.isfinite(float(v)) for v in out) or min(out[1], out[2], out[3]) < 0:
+        raise ValueError(f"{where}: {verb} returned {out!r}: every output finite, slip rate, slip and work >= 0")
 
 
 def register_law(law: Law, *, replace: bool = False) -> Law:
@@ -85,7 +100,7 @@ def register_law(law: Law, *, replace: bool = False) -> Law:
     _check_params(where, law.params)
     if not isinstance(law.state, tuple) or not all(isinstance(s, str) and s.isidentifier() for s in law.state):
         raise ValueError(f"{where}.state: expected a tuple of state-variable names (identifiers)")
-    for verb in ("advance", "steady_mu"):
+    for verb in ("advance", "steady_mu") + (("rigid",) if law.rigid is not None else ()):
         if not hasattr(getattr(law, verb), "py_func"):
             raise ValueError(f"{where}.{verb}: must be a numba function (decorate it with @numba.njit)")
     _smoke(law)

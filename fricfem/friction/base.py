@@ -53,16 +53,34 @@ Optional verbs (``None`` when a law does not provide them):
     (slip weakening), whose references are exact piecewise solutions.
 
 ``rigid(p, s, T_stick, Z, Tn0, Tn1, dt) -> (Ts, v, dslip, dwork, nsub)`` (numba):
-    one step ``dt`` [s] of a *rigid* (split-node) interface point.  ``T_stick``
-    [Pa] is the signed shear traction that keeps the node pair from slipping
-    over the step, ``Z`` > 0 [Pa·s/m] the drop of traction per unit slip rate
-    of the pair, so that Ts = T_stick − Z v sgn(T_stick).  Returns the end
-    slip rate v >= 0 (along sgn(T_stick)) consistent with the law, its state
-    integrated implicitly over the step (each law says how), with
-    |Ts| <= strength when v = 0; the slip over the step (v·dt: the slip is
-    backward Euler), the frictional work |Ts|·v·dt >= 0 and the number of
-    local iterations.  ``s`` (state, then memo) is updated in place; the
-    normal traction is ``Tn1`` at the end of the step (``Tn0`` at its start).
+    one step t^n → t^{n+1} of a *rigid* (split-node) interface point, in the
+    central-difference step of the bulk (displacements and the state at
+    whole steps, velocities at half steps).  It receives:
+
+    s        the state at t^n (then the memo); updated in place to t^{n+1}
+    T_stick  [Pa] the signed shear traction of the step that keeps the node
+             pair from slipping from t^n to t^{n+1}: the force of the step
+             (the central-difference force, which belongs to t^n) when the
+             pair's half-step slip rate V^{n+½} is zero
+    Z        > 0 [Pa·s/m] the drop of that traction per unit slip rate V^{n+½},
+             so that Ts = T_stick − Z v sgn(T_stick)
+    Tn1      [Pa] the normal traction of the step (the same time, t^n), > 0;
+             Tn0 that of the step before (t^{n−1})
+    dt       [s] the step
+
+    and returns the shear traction of the step Ts [Pa] (the force of t^n;
+    |Ts| <= the strength, = T_stick when v = 0), the pair's slip rate of the
+    step v = V^{n+½} >= 0 [m/s] (along sgn(T_stick)), the slip from t^n to
+    t^{n+1}, v·dt [m] (so the slip lives at whole steps: δ^{n+1} = δ^n + v dt),
+    the frictional work |Ts|·v·dt >= 0 [J/m²] and the number of local
+    iterations.  Each law says at which time within the step it evaluates
+    its strength (slip weakening: μ(δ^n), at t^n, explicit; the rate-and-state
+    laws and the rigid limit of Povirk–Needleman: at t^{n+½}, with V^{n+½}
+    and the state integrated to the middle of the step at that rate, then
+    over the whole step).  The block slider of
+    :func:`fricfem.friction.reference.drive_rigid` runs the verb in the same
+    step and is scored against scipy (tests/test_point_reference.py,
+    tests/test_rate_state.py).
 
 ``kernel``, ``rigid_kernel``: the law's specialised interface kernels, elastic
     and rigid (set by the law module, see :mod:`fricfem.kernels.interface`;

@@ -358,31 +358,39 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 @numba.njit(cache=True)
 def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
-    """One step of a rigid split-node pair (contract in :mod:`.base`).
+    """One step t^n → t^{n+1} of a rigid split-node pair (contract in :mod:`.base`).
 
-    The rigid limit of the law: |T_s| = g(θ0)(θ1 + θ2)(1 + v/V0)^(1/m) with
-    T_s = T_stick − Z v sgn(T_stick) and the θ's from the backward-Euler
-    update over the step at the end slip rate v (θ0 = (θ0ⁿ + B dt)/(1 + B dt v/L0),
-    θ1 = (θ1ⁿ + C T_n dt v/L1)/(1 + dt v/L1), likewise θ2; T_n = Tn1).  If
-    |T_stick| <= g(θ0ⁿ + B dt)(θ1 + θ2) (the strength aged over the step at
-    v = 0) the pair sticks: v = 0, T_s = T_stick.  Otherwise the consistency is
+    The rigid limit of the law, taken at the middle of the step, where the
+    pair's slip rate v = V^{n+½} lives: |T_s| = g(θ0)(θ1 + θ2)(1 + v/V0)^(1/m)
+    with T_s = T_stick − Z v sgn(T_stick) and the θ's of t^{n+½}, from the
+    backward-Euler update over dt/2 at v (θ0 = (θ0ⁿ + B dt/2)/(1 + B (dt/2) v/L0),
+    θ1 = (θ1ⁿ + C T_n (dt/2) v/L1)/(1 + (dt/2) v/L1), likewise θ2; T_n = Tn1,
+    the normal traction of the step).  If |T_stick| <= g(θ0ⁿ + B dt/2)(θ1 + θ2)
+    the pair sticks: v = 0, T_s = T_stick.  Otherwise the consistency is
     solved for y = (1 + v/V0)^(1/m) on [1, y_max] (T_s = 0 at y_max) by the
     same safeguarded Newton iteration as the elastic sub-step
-    (:func:`_slide_substep` with γ = 1, zero jump rate and C_s h = Z: its trial
-    traction is then T_stick and its traction drop Z v).  Backward Euler in
-    the slip (dslip = v dt) and the state; first order.  Returns one local
-    iteration count (one implicit solve).
+    (:func:`_slide_substep` with γ = 1, zero jump rate, h = dt/2 and C_s h = Z:
+    its trial traction is then T_stick and its traction drop Z v).  The θ's
+    then advance by the same backward-Euler update over the whole step at v,
+    and the slip by v dt.  Returns one local iteration count (one implicit
+    solve).
     """
     if dt <= 0.0:
         # Safeguard: no time, no slip (and Z/dt below is undefined)
         return T_stick, 0.0, 0.0, 0.0, 0
-    # γ = 1, vs = 0, h = dt, C_s = Z/dt: T* = T_stick, traction drop dt (Z/dt) v = Z v
-    Ts1, a0, a1, a2, w, y1, G1, ds = _slide_substep(
-        p, T_stick, s[0], s[1], s[2], 0.0, 1.0, Tn1, Tn1, 0.0, Z / dt, dt, 1.0
+    h = 0.5 * dt
+    # γ = 1, vs = 0, C_s = Z/h: T* = T_stick, traction drop h (Z/h) v = Z v
+    Ts1, _, _, _, w, _, _, _ = _slide_substep(
+        p, T_stick, s[0], s[1], s[2], 0.0, 1.0, Tn1, Tn1, 0.0, Z / h, h, 1.0
     )
+    # the state at t^{n+1}: the same update over dt at w
+    a0 = (s[0] + p[B] * dt) / (1.0 + p[B] * dt * w / p[L0])
+    a1 = (s[1] + p[C] * Tn1 * dt * w / p[L1]) / (1.0 + dt * w / p[L1])
+    a2 = (s[2] + p[D] * Tn1 * dt * w / p[L2]) / (1.0 + dt * w / p[L2])
     s[0] = a0
     s[1] = a1
     s[2] = a2
     # the strength of the new state, for the memo of a later ``advance``
-    _remember(s, a0, a1 + a2, G1)
+    _remember(s, a0, a1 + a2, strength_factor(p, a0) * (a1 + a2))
+    ds = w * dt
     return Ts1, w, ds, abs(Ts1) * ds, 1

@@ -62,12 +62,14 @@ it, converges to |Δu| <= 1e-12 (relative 1e-12 in w).
   redone shorter (h · 0.9/r), the next grows by at most 2×.  Below
   dt/512 the limits are dropped and the sub-step is backward Euler (γ = 1,
   L-stable).  T_n is linear in time over the bulk step.
-* ``rigid`` (split-node interface): the same solve over the whole step with
-  S = |T_stick|, the node pair's Z, γ = 1 and v_fix = 0: backward Euler in the
-  slip (dslip = w dt) with the state integrated exactly at the end rate w
-  (fully implicit, L-stable, first order).  SEM2DPACK's bc_dynflt_rsf instead
-  takes two passes at fixed state (state at the old rate, solve V; state at
-  the mean rate, solve V again); the coupled solve here needs no previous rate.
+* ``rigid`` (split-node interface): the same solve with S = |T_stick|, the
+  node pair's Z, γ = 1, v_fix = 0 and h = dt/2: w is the pair's slip rate of
+  the step, V^{n+½}, and the law holds at the middle of the step, with the
+  state integrated exactly at w over dt/2; the state then advances exactly
+  at w over the whole step, and the slip by w dt.  SEM2DPACK's bc_dynflt_rsf
+  instead takes two passes at fixed state (state at the old rate, solve V;
+  state at the mean rate, solve V again); the coupled solve here needs no
+  previous rate.
 * ``slide`` (imposed slip rate): the exact state update at constant V.
 """
 
@@ -393,14 +395,17 @@ def advance(kind, p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 @numba.njit(cache=True)
 def rigid(kind, p, s, T_stick, Z, Tn0, Tn1, dt):
-    """One step of the rigid (split-node) interface (contract in :mod:`.base`):
-    S − Z w = μ(w, Ψ_end) T_n(t + dt), Ψ_end exact at the constant rate w over
-    dt (backward Euler in slip, fully implicit state)."""
+    """One step t^n → t^{n+1} of the rigid (split-node) interface (contract in
+    :mod:`.base`), the law taken at the middle of the step, where the pair's
+    slip rate w = V^{n+½} lives: S − Z w = μ(w, Ψ^{n+½}) T_n, Ψ^{n+½} the
+    state integrated exactly at the constant rate w over dt/2 (solved for w
+    with the state, as :func:`solve_rate`); then Ψ^{n+1}, exact at w over dt.
+    The slip over the step is w dt."""
     psi = s[0]
     S = abs(T_stick)
     u0 = ln_rate(p, S, Tn1, psi)  # first guess: the rate at T_stick with the current state
-    w, pe, Tabs, _, it = solve_rate(kind, p, psi, 0.0, 1.0, dt, S, Z, Tn1, u0)
-    s[0] = pe
+    w, pe, Tabs, _, it = solve_rate(kind, p, psi, 0.0, 1.0, 0.5 * dt, S, Z, Tn1, u0)
+    s[0] = state_end(kind, p, psi, w, dt)[0]
     ds = w * dt
     return sign(T_stick) * Tabs, w, ds, Tabs * ds, max(it, 1)
 

@@ -86,31 +86,23 @@ def slide(p, s, v, Tn0, Tn1, dt):
 
 @numba.njit(cache=True)
 def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
-    """One step of a rigid split-node pair (contract in :mod:`.base`), closed
-    form, backward Euler in the slip: the pair sticks (v = 0, T_s = T_stick)
-    if |T_stick| <= μ(δ) T_n(t + dt); otherwise v solves
-    |T_stick| − Z v = μ(δ + v dt) T_n, linear on each branch of μ.  The rate
-    form of :func:`advance`'s return map (C_s dδ there is Z v here)."""
+    """One step t^n → t^{n+1} of a rigid split-node pair (contract in
+    :mod:`.base`), closed form.  The pair's traction is that of t^n, so its
+    strength is μ(δ^n) T_n with δ^n the slip at t^n (Andrews 1999; Day et al.
+    2005): the pair sticks (v = 0, T_s = T_stick) if |T_stick| <= μ(δ^n) T_n;
+    otherwise |T_s| = μ(δ^n) T_n and v = (|T_stick| − μ(δ^n) T_n)/Z is the
+    slip rate of the step, V^{n+½}; the slip at t^{n+1} is δ^n + v dt.
+    Explicit in the slip, so no branch or snap-back case: the weakening
+    enters one step later, through δ^{n+1}."""
     delta = s[0]
     a = abs(T_stick)
-    if a <= mu(p, delta) * Tn1:
+    strength = mu(p, delta) * Tn1  # at the slip of t^n, the time of the pair's traction
+    if a <= strength:
         return T_stick, 0.0, 0.0, 0.0, 1
-    k = Tn1 * (p[MU_S] - p[MU_D]) / p[DC] * dt  # strength lost per unit slip rate over the step
-    v = -1.0
-    if Z > k and delta < p[DC]:
-        # sloping branch: a − Z v = T_n (μ(δ) − w v dt)
-        v = (a - mu(p, delta) * Tn1) / (Z - k)
-        if delta + v * dt > p[DC]:
-            v = -1.0
-    if v < 0.0:
-        # flat branch μ = μd.  Safeguard: when Z <= k the pair's impedance is
-        # below the weakening (the implicit equation's sloping branch rises,
-        # no root there); the root is then on this branch.
-        v = max((a - p[MU_D] * Tn1) / Z, 0.0)
+    v = (a - strength) / Z
     s[0] = delta + v * dt
-    Ts1 = sign(T_stick) * (a - Z * v)
     ds = v * dt
-    return Ts1, v, ds, abs(Ts1) * ds, 1
+    return sign(T_stick) * strength, v, ds, strength * ds, 1
 
 
 @numba.njit(cache=True, _nrt=False)

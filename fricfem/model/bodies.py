@@ -236,43 +236,15 @@ def contact_pairs(num, template, mass: np.ndarray, comm, target):
     buffer (Δu_n = u1(buffer) − u1(projectile), opening positive).  The pairs'
     negative forces are inserted into ``target`` (a vector with the layout of
     the displacement) at their dofs only.  Collective."""
-    from petsc4py import PETSc
-
-    from .interface import SEG_BLOCK, PairGeometry
+    from .interface import pair_geometry
 
     p, b = _face_nodes(num, "contact_projectile"), _face_nodes(num, "contact_buffer")
     if len(p) < 2 or len(p) != len(b) or not np.array_equal(num.x[p], num.x[b]):
         raise RuntimeError("experiment: the projectile's face and the buffer's do not pair up node for node")
-    x2 = num.x[p, 1].copy()
     gp, gb = num.global_block[p], num.global_block[b]
-    pairs = np.flatnonzero((np.arange(len(x2)) // SEG_BLOCK) % comm.size == comm.rank)
-    length = np.diff(x2)
-    A = np.zeros(len(x2))
-    A[:-1] += 0.5 * length
-    A[1:] += 0.5 * length
-    swap = np.array([1, 0])  # (x2, x1): the pair kernel's (s, n)
-    gnodes = np.concatenate([gp[pairs], gb[pairs]])
-    gidx = (2 * gnodes[:, None] + swap[None, :]).ravel().astype(PETSc.IntType)
-    work_u = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
-    scatter = PETSc.Scatter().create(template, PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF), work_u, None)
-    mvec = template.duplicate()
-    mvec.array[:] = mass
-    work_v, work_k = work_u.duplicate(), work_u.duplicate()
-    scatter.scatter(mvec, work_v, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
-    n = len(pairs)
-    wm = work_v.array.reshape(2, n, 2)
-    pair_mass = np.column_stack([wm[0, :, 0], wm[1, :, 0]]).ravel().copy()
-    edge = np.zeros(2 * n + 1)  # no prescribed dof on the contact
-    force = PETSc.Vec().createSeq(4 * n, comm=PETSc.COMM_SELF)
-    slots = 4 * np.arange(n)
-    src = np.concatenate([slots, slots + 1, slots + 2, slots + 3]).astype(PETSc.IntType)
-    dst = np.concatenate([2 * gp[pairs] + 1, 2 * gp[pairs], 2 * gb[pairs] + 1, 2 * gb[pairs]]).astype(PETSc.IntType)
-    to_target = PETSc.Scatter().create(force, PETSc.IS().createGeneral(src, comm=PETSc.COMM_SELF), target,
-                                       PETSc.IS().createGeneral(dst, comm=PETSc.COMM_SELF))
-    unused = template.duplicate()
-    unused.set(0.0)
-    return PairGeometry(x2, pairs, x2[pairs].copy(), A[pairs].copy(), pair_mass, edge, scatter, work_u, work_v,
-                        work_k, force, to_target, target, unused, comm), np.concatenate([gp[pairs], gb[pairs]])
+    # (x2, x1): the pair kernel's (s, n); no prescribed dof on the contact
+    geom = pair_geometry(num.x[p, 1].copy(), gp, gb, (1, 0), template, mass, comm, target=target)
+    return geom, np.concatenate([gp[geom.pairs], gb[geom.pairs]])
 
 
 def projectile_nodes(num, spec: BodiesMesh) -> np.ndarray:

@@ -309,15 +309,27 @@ def build_pairs(num, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=())
     lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     if len(lo) < 2 or len(lo) != len(up) or not np.array_equal(num.x[lo, 0], num.x[up, 0]):
         raise RuntimeError("interface: the lower and upper interface nodes do not pair up")
-    x1n = num.x[lo, 0].copy()
-    g_lo, g_up = num.global_block[lo], num.global_block[up]
-    pairs = np.flatnonzero((np.arange(len(x1n)) // SEG_BLOCK) % comm.size == comm.rank)
-    length = np.diff(x1n)
-    A = np.zeros(len(x1n))
+    return pair_geometry(num.x[lo, 0].copy(), num.global_block[lo], num.global_block[up], (0, 1), template, mass,
+                         comm, prescribed)
+
+
+def pair_geometry(xs, g_a, g_b, comps, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=(),
+                  target: PETSc.Vec | None = None) -> PairGeometry:
+    """Split-node pairs along a straight interface: node ``g_a[k]`` (the "lower"
+    side) against ``g_b[k]`` (the "upper" one) at position ``xs[k]`` along it,
+    dealt to ranks in blocks of SEG_BLOCK; ``comps`` the components gathered as
+    the pair kernel's (s, n): (0, 1) for the interface x2 = 0, (1, 0) for a
+    face normal to x1 (the experiment's contact).  ``prescribed``: owned local
+    dofs whose velocity is prescribed; ``target``: the vector the pairs' forces
+    are inserted into (default: a new one, ``left``).  Collective."""
+    pairs = np.flatnonzero((np.arange(len(xs)) // SEG_BLOCK) % comm.size == comm.rank)
+    length = np.diff(xs)
+    A = np.zeros(len(xs))
     A[:-1] += 0.5 * length  # each node gets half of the segment on its right …
     A[1:] += 0.5 * length  # … then half of the one on its left
-    gnodes = np.concatenate([g_lo[pairs], g_up[pairs]])
-    gidx = (2 * gnodes[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+    comps = np.asarray(comps)
+    gnodes = np.concatenate([g_a[pairs], g_b[pairs]])
+    gidx = (2 * gnodes[:, None] + comps[None, :]).ravel().astype(PETSc.IntType)
     work_u = PETSc.Vec().createSeq(len(gidx), comm=PETSc.COMM_SELF)
     scatter = PETSc.Scatter().create(template, PETSc.IS().createGeneral(gidx, comm=PETSc.COMM_SELF), work_u, None)
     mvec = template.duplicate()
@@ -334,12 +346,15 @@ def build_pairs(num, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=())
     edge = np.append(np.column_stack([wf[0, :, 0], wf[1, :, 0]]).ravel(), 0.0)
     force = PETSc.Vec().createSeq(4 * n, comm=PETSc.COMM_SELF)
     slots = 4 * np.arange(n)
-    left, right = template.duplicate(), template.duplicate()
-    left.set(0.0)
+    if target is None:
+        target = template.duplicate()
+        target.set(0.0)
+    right = template.duplicate()
     right.set(0.0)
     src = np.concatenate([slots, slots + 1, slots + 2, slots + 3]).astype(PETSc.IntType)
-    dst = np.concatenate([2 * g_lo[pairs], 2 * g_lo[pairs] + 1, 2 * g_up[pairs], 2 * g_up[pairs] + 1])
-    to_left = PETSc.Scatter().create(force, PETSc.IS().createGeneral(src, comm=PETSc.COMM_SELF), left,
+    dst = np.concatenate([2 * g_a[pairs] + comps[0], 2 * g_a[pairs] + comps[1],
+                          2 * g_b[pairs] + comps[0], 2 * g_b[pairs] + comps[1]])
+    to_left = PETSc.Scatter().create(force, PETSc.IS().createGeneral(src, comm=PETSc.COMM_SELF), target,
                                      PETSc.IS().createGeneral(dst.astype(PETSc.IntType), comm=PETSc.COMM_SELF))
-    return PairGeometry(x1n, pairs, x1n[pairs].copy(), A[pairs].copy(), pair_mass, edge, scatter, work_u, work_v,
-                        work_k, force, to_left, left, right, comm)
+    return PairGeometry(xs, pairs, xs[pairs].copy(), A[pairs].copy(), pair_mass, edge, scatter, work_u, work_v,
+                        work_k, force, to_left, target, right, comm)

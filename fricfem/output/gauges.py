@@ -1,4 +1,7 @@
-"""Gauges: point histories inside the plates (``output.gauges``) → ``gauges.h5``.
+"""Gauges: point histories inside the plates (``output.gauges``) → ``gauges.h5``,
+and line gauges kept in memory (:class:`LineGauges`: the experiment's strain
+gauges, struck-edge velocities and projectile).  Both gather the values of
+their nodes onto rank 0 the same way (:class:`NodeValues`).
 
 A gauge at (x1, x2) records, every ``output.gauges_every`` steps, what a
 strain gauge, a vibrometer or a photoelastic reading there would see:
@@ -126,6 +129,47 @@ def evaluate(nodal: np.ndarray, loc: Located, mu: float, lmbda: float, sigma0: f
     }
 
 
+class NodeValues:
+    """Gathers (u1, u2, v1, v2) of given grid nodes onto rank 0 with one reduction,
+    the core of every gauge here.  ``nodes`` int64 grid nodes of any shape S (a
+    node may repeat); ``extra`` values per sample that each rank adds its own share
+    of (summed by the same reduction).  Each rank writes the values of the nodes
+    it owns into a send buffer [S, 4] (zeros elsewhere): every entry has exactly
+    one owner, so the sum is exact and the values bit-identical on any number of
+    ranks."""
+
+    def __init__(self, num, comm, nodes: np.ndarray, extra: int = 0):
+        from mpi4py import MPI  # here, so that reading gauges.h5 needs no MPI
+
+        self.comm, self.sum = comm, MPI.SUM
+        self.shape = np.shape(nodes)
+        blk = num.block_of_node[np.asarray(nodes, dtype=np.int64)].ravel()  # this rank's block of each, or −1
+        owned = (blk >= 0) & (blk < num.n_owned)
+        slots = np.flatnonzero(owned)  # the entries this rank supplies, flat
+        self.dofs = (2 * blk[owned, None] + np.arange(2)).ravel()  # their (x1, x2) dofs in the owned arrays
+        self.to_u = (4 * slots[:, None] + np.arange(2)).ravel()  # where u1, u2 go in the flat send buffer
+        self.to_v = self.to_u + 2  # v1, v2
+        self.n = 4 * len(blk)
+        self.send = np.zeros(self.n + extra)
+        self.recv = np.zeros_like(self.send) if comm.rank == 0 else None
+
+    def gather(self, state, extra=()) -> np.ndarray | None:
+        """The nodes' values float64[S, 4] on rank 0, a copy (the summed ``extra``:
+        :attr:`extra_sum`); None elsewhere.  Collective."""
+        self.send[self.to_u] = state.u.array_r[self.dofs]  # 1-D fancy indexing: ~1 µs for 100 gauges
+        self.send[self.to_v] = state.v.array_r[self.dofs]
+        self.send[self.n:] = extra
+        self.comm.Reduce(self.send, self.recv, op=self.sum, root=0)  # one owner per node entry: exact
+        if self.comm.rank != 0:
+            return None
+        return self.recv[: self.n].reshape(*self.shape, 4).copy()
+
+    @property
+    def extra_sum(self) -> np.ndarray:
+        """The ``extra`` of the last :meth:`gather`, summed over ranks (rank 0)."""
+        return self.recv[self.n:].copy()
+
+
 class GaugeWriter:
     """Samples the scene's gauges every ``output.gauges_every`` steps into ``gauges.h5``
     (:meth:`observe` is collective; rank 0 writes).
@@ -146,9 +190,7 @@ class GaugeWriter:
         self.names = tuple(table)
         self.points = np.array([table[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
         self.every = int(scene.output["gauges_every"])
-        from mpi4py import MPI  # here, so that reading gauges.h5 needs no MPI
-
-        self.comm, self.sum = model.comm, MPI.SUM
+        self.comm = model.comm
         self.dt = model.dt
         self.planned = int(math.floor(scene.t_end / model.dt + 1e-9)) // self.every + 1  # rows, t = 0 included
         self.path = Path(path)
@@ -156,15 +198,7 @@ class GaugeWriter:
         self.constants = (mat.mu, mat.lmbda, scene.sigma0, scene.tau0)
         num = model.num
         self.loc = locate(num.x, num.cells, self.points)
-        blk = num.block_of_node[self.loc.triangle].ravel()  # this rank's block of each (gauge, vertex), or −1
-        owned = (blk >= 0) & (blk < num.n_owned)
-        slots = np.flatnonzero(owned)  # the (gauge, vertex) pairs this rank supplies, flat
-        self.dofs = (2 * blk[owned, None] + np.arange(2)).ravel()  # their (x1, x2) dofs in the owned arrays
-        self.to_u = (4 * slots[:, None] + np.arange(2)).ravel()  # where u1, u2 go in the flat send buffer
-        self.to_v = self.to_u + 2  # v1, v2
-        self.send = np.zeros((len(self.names) * 3, 4))
-        self.flat = self.send.reshape(-1)  # a view
-        self.recv = np.zeros_like(self.send) if self.comm.rank == 0 else None
+        self.nodal = NodeValues(num, self.comm, self.loc.triangle)
         self.pending = []  # (t, nodal values [n_g, 3, 4]) gathered on rank 0, evaluated at the flush
         self.written = 0
         self.h5 = error = None
@@ -217,11 +251,9 @@ class GaugeWriter:
         """Sample the gauges if step ``state.n`` is due (collective then)."""
         if state.n % self.every:
             return
-        self.flat[self.to_u] = state.u.array_r[self.dofs]  # 1-D fancy indexing: ~1 µs for 100 gauges
-        self.flat[self.to_v] = state.v.array_r[self.dofs]
-        self.comm.Reduce(self.send, self.recv, op=self.sum, root=0)  # one owner per entry: exact
-        if self.comm.rank == 0:
-            self.pending.append((state.t, self.recv.reshape(-1, 3, 4).copy()))
+        values = self.nodal.gather(state)
+        if values is not None:
+            self.pending.append((state.t, values))
 
     def flush(self) -> None:
         """Write the pending rows (rank 0; no communication): values, an HDF5 flush,
@@ -331,3 +363,103 @@ def open_gauges(rundir) -> GaugeFile | None:
     path = Path(rundir)
     path = path / GAUGES_FILE if path.is_dir() else path
     return GaugeFile(path) if path.is_file() else None
+
+
+def _lower_nodes(num) -> np.ndarray:
+    """bool[n_grid]: grid nodes of cells whose centroid lies below the interface."""
+    below = num.x[num.cells].mean(axis=1)[:, 1] < 0.0
+    mark = np.zeros(len(num.x), dtype=bool)
+    mark[np.unique(num.cells[below])] = True
+    return mark
+
+
+def line_nodes(num, lower: np.ndarray, X: float, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes of ``lower`` on the node line x1 = X with a ≤ x2 ≤ b and their
+    weights ∫N_i ds along it [m] (nodes at one position share its weight)."""
+    idx = np.flatnonzero(lower & (num.x[:, 0] == X) & (num.x[:, 1] >= a) & (num.x[:, 1] <= b))
+    ys, at = np.unique(num.x[idx, 1], return_inverse=True)
+    w = np.zeros(len(ys))
+    d = np.diff(ys)
+    w[:-1] += 0.5 * d
+    w[1:] += 0.5 * d
+    return idx, w[at]
+
+
+class LineGauges:
+    """Gauges along segments of the lower plate, the buffer and the projectile,
+    recorded after every step (a runner's ``on_step``) and kept in memory: what a
+    strain gauge or a velocity probe on the specimen would record, and, for a
+    model with the experiment's bodies (:mod:`fricfem.model.bodies`), the
+    projectile's mean velocity and contact force.
+
+    ``lines`` {name: (X, x2_min, x2_max, h)} [m]: the segment x1 = X (the nearest
+    node line), x2_min ≤ x2 ≤ x2_max, gives ``name.v1``, the mean x1 velocity over
+    its nodes, each weighted by its share of the segment (∫N_i ds), and
+    ``name.eps11`` = (ū1(X + h) − ū1(X − h))/(2h), the same means of u1 on the
+    neighbouring node lines (a strain gauge of length 2h across the segment).
+    With bodies: ``projectile.v1`` = Σ M v1 / Σ M and ``contact_force`` [N/m],
+    the force the contact presses it with, at the interface time t^n.
+    Velocities are v^{n+½} (``t_v``), displacements u^{n+1} (``t_u``).  Only
+    nodes of cells below the interface count, so the upper plate's interface
+    node is never mixed in.  The nodes' values come to rank 0 through
+    :class:`NodeValues` (exact, the same on any number of ranks)."""
+
+    def __init__(self, model, lines: dict):
+        self.model = model
+        num = model.num
+        lower = _lower_nodes(num)
+        xs = np.unique(num.x[lower, 0])  # the node lines x1 = const below the interface
+        nodes, weights, self.names, self.dx = [], [], tuple(lines), []
+        self.positions = {}  # name: the node lines' x1 (X, X + h, X − h) [m]
+        for name, (X, a, b, h) in lines.items():
+            at = []
+            for off in (0.0, h, -h):
+                near = xs[np.argmin(np.abs(xs - (X + off)))]
+                idx, w = line_nodes(num, lower, near, a, b)
+                if not len(idx):
+                    raise ValueError(f"line gauge {name}: no node on x1 = {near:g} m within x2 = [{a:g}, {b:g}] m")
+                nodes.append(idx)
+                weights.append(w)
+                at.append(near)
+            self.dx.append(at[1] - at[2])
+            self.positions[name] = tuple(at)
+        self.starts = np.cumsum([0] + [len(i) for i in nodes[:-1]])
+        self.w = np.concatenate(weights)
+        self.wsum = np.add.reduceat(self.w, self.starts)
+        bodies = model.bodies
+        self.nodal = NodeValues(num, model.comm, np.concatenate(nodes), extra=3 if bodies is not None else 0)
+        if bodies is not None:
+            self.dofs = 2 * bodies.nodes
+            self.m = model.mass[self.dofs]
+        self.rows = []
+
+    def record(self, state) -> None:
+        """Add this step's values (collective)."""
+        extra = ()
+        b = self.model.bodies
+        if b is not None:
+            p, geo = b.contact.points, b.contact.geometry
+            extra = (np.dot(self.m, state.v.array_r[self.dofs]), self.m.sum(), float(np.dot(p.Tn, geo.wq)))
+        nodal = self.nodal.gather(state, extra)
+        if nodal is None:
+            return
+        mean = np.add.reduceat(self.w[:, None] * nodal[:, [2, 0]], self.starts) / self.wsum[:, None]
+        mean = mean.reshape(-1, 3, 2)  # [line, (X, X + h, X − h), (v1, u1)]
+        row = [state.t - 0.5 * self.model.dt, state.t]
+        row += np.column_stack([mean[:, 0, 0], (mean[:, 1, 1] - mean[:, 2, 1]) / self.dx]).ravel().tolist()
+        if b is not None:
+            s = self.nodal.extra_sum
+            row += [s[0] / s[1], s[2]]
+        self.rows.append(row)
+
+    def result(self) -> dict | None:
+        """{quantity: float64[n_steps]} on rank 0 (None elsewhere): ``t_v``, ``t_u``,
+        ``name.v1``, ``name.eps11`` per line, then ``projectile.v1`` and
+        ``contact_force`` with bodies."""
+        if self.model.comm.rank != 0:
+            return None
+        keys = ["t_v", "t_u"] + [f"{n}.{q}" for n in self.names for q in ("v1", "eps11")]
+        keys += ["projectile.v1", "contact_force"] if self.model.bodies is not None else []
+        if not self.rows:
+            return {}
+        return dict(zip(keys, np.array(self.rows).T.copy()))

@@ -41,13 +41,16 @@ class RunInfo:
     v_imp: float | None = None
     speeds: dict = dataclasses.field(default_factory=dict)
     mode: str | None = None
+    projectile: float | None = None  # the experiment's projectile speed [m/s] (its edge has no V_imp)
 
     def title(self) -> str:
         parts = [self.scene] if self.scene else []
         load = []
         if self.sigma0 is not None:
             load.append(rf"$\Sigma_0$ = {self.sigma0 / 1e6:.3g} MPa")
-        if self.v_imp is not None:
+        if self.projectile:
+            load.append(f"projectile {self.projectile:.3g} m/s on the steel buffer")
+        if self.v_imp is not None and not (self.projectile and self.v_imp == 0):
             load.append(rf"$V_{{\rm imp}}$ = {self.v_imp:.3g} m/s")
         if load:
             parts.append(", ".join(load))
@@ -77,12 +80,15 @@ def run_info(rundir=None, interface=None, summary=None) -> RunInfo:
     sigma0 = _attr(attrs, "sigma0", summary.get("sigma0"))
     v_imp = _attr(attrs, "v_imp", summary.get("v_imp"))
     mode = (summary.get("mode") or {}).get("label") if isinstance(summary.get("mode"), dict) else None
+    experiment = (summary.get("input") or {}).get("experiment") or {}
+    projectile = experiment.get("projectile_speed") if isinstance(experiment, dict) else None
     return RunInfo(
         scene=str(scene),
         sigma0=float(sigma0) if _is_number(sigma0) else None,
         v_imp=float(v_imp) if _is_number(v_imp) else None,
         speeds=speeds,
         mode=mode,
+        projectile=float(projectile) if _is_number(projectile) and projectile > 0 else None,
     )
 
 

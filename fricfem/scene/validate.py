@@ -477,8 +477,8 @@ def validate(raw: dict) -> Scene:
     for i, t in enumerate(out["fields"]):
         check_value(f"output.fields[{i}]", Key(NUM, 0.0, "s", 0.0, tm["end"], "snapshot time", open_low=True), t)
     absorbing = _absorbing(sec["mesh"]["absorbing"])
-    if itf["kind"] == "rigid" and friction.get_law(law).rigid_kernel is None:
-        rigid = sorted(n for n, lw in friction.LAWS.items() if lw.rigid_kernel is not None)
+    if itf["kind"] == "rigid" and friction.get_law(law).rigid is None:
+        rigid = sorted(n for n, lw in friction.LAWS.items() if lw.rigid is not None)
         raise SceneError(f"interface.kind = 'rigid': the law {law!r} has no rigid (split-node) form; "
                          f"allowed with it: {', '.join(rigid)}")
     scene = Scene(

@@ -1,7 +1,7 @@
 """The rigid (split-node) verb's continuous problem, solved independently: a
 rigid block on the frictional contact (:func:`block_slider`; slip weakening
 exactly, :func:`slip_weakening_block`), and fricfem's ``rigid`` driven through
-the same problem (:func:`drive_rigid`)."""
+the same problem in the split-node step (:func:`drive_rigid`)."""
 
 from __future__ import annotations
 
@@ -240,9 +240,21 @@ def slip_weakening_block(params, t, force: Callable, mass: float, Tn: float, V_i
 
 def drive_rigid(law: Law, params, t, force: Callable, mass: float, Tn, V_init: float = 0.0,
                 state0=None, Ts0: float = 0.0):
-    """fricfem's discretisation of the block (a plain Python loop over ``law.rigid``):
-    T_stick = m Vⁿ/dt + F(tⁿ⁺¹), Z = m/dt, V^{n+1} = sgn(T_stick) v.
-    Returns (V, friction traction, slip, work, state, iterations) at ``t``."""
+    """fricfem's discretisation of the block (a plain Python loop over ``law.rigid``),
+    the central-difference step of a split-node pair: the block's velocity at the
+    half steps, its slip and the law's state at the whole steps, the friction
+    traction of the step t^n → t^{n+1} at t^n::
+
+        m (V^{n+½} − V^{n−½}) / Δ^n = F(t^n) − T^n,   Δ^n = (t^{n+1} − t^{n−1})/2,
+        T_stick = m V^{n−½}/Δ^n + F(t^n),  Z = m/Δ^n,  V^{n+½} = sgn(T_stick) v,
+        δ^{n+1} = δ^n + v (t^{n+1} − t^n),
+
+    started with a half step (V^{−½} = V_init, Δ^0 = (t^1 − t^0)/2: second order).
+    The law's normal traction is T_n(t^n) (Tn1; Tn0 = T_n(t^{n−1})).
+
+    Returns (V, friction traction, slip, work, state, iterations): V[k] = V^{k+½}
+    at (t[k] + t[k+1])/2, the traction T[k] = T^k at t[k] and the iterations of
+    step k (each len(t) − 1); the slip, the work and the state at ``t``."""
     from ..base import storage
 
     p = as_params(law, params)
@@ -251,23 +263,24 @@ def drive_rigid(law: Law, params, t, force: Callable, mass: float, Tn, V_init: f
     s = storage(law, law.initial_state(p, Tn_f(t[0]), Ts0) if state0 is None else state0)
     ns = len(law.state)
     n = len(t)
-    V = np.zeros(n)
-    T = np.zeros(n)
+    V = np.zeros(n - 1)
+    T = np.zeros(n - 1)
     slip = np.zeros(n)
     work = np.zeros(n)
-    nit = np.zeros(n, dtype=np.int64)
+    nit = np.zeros(n - 1, dtype=np.int64)
     state = np.zeros((n, ns))
-    V[0] = V_init
     state[0] = s[:ns]
     m = float(mass)
+    v_prev = float(V_init)
     for k in range(n - 1):
         dt = t[k + 1] - t[k]
-        Tst = m * V[k] / dt + force(t[k + 1])
-        Ts, v, ds, dw, it = law.rigid(p, s, Tst, m / dt, Tn_f(t[k]), Tn_f(t[k + 1]), dt)
-        V[k + 1] = math.copysign(v, Tst) if v > 0.0 else 0.0
-        T[k + 1] = Ts
+        dm = 0.5 * (t[k + 1] - t[k - 1]) if k > 0 else 0.5 * dt
+        Tst = m * v_prev / dm + force(t[k])
+        Ts, v, ds, dw, it = law.rigid(p, s, Tst, m / dm, Tn_f(t[k - 1] if k > 0 else t[0]), Tn_f(t[k]), dt)
+        v_prev = V[k] = math.copysign(v, Tst) if v > 0.0 else 0.0
+        T[k] = Ts
         slip[k + 1] = slip[k] + ds
         work[k + 1] = work[k] + dw
-        nit[k + 1] = it
+        nit[k] = it
         state[k + 1] = s[:ns]
     return V, T, slip, work, state, nit

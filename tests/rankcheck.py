@@ -1,0 +1,26 @@
+"""One scene on every rank of ``comm`` and alone on rank 0: which recorded arrays differ."""
+
+import numpy as np
+from mpi4py import MPI
+
+from fricfem import runner
+from fricfem.output.rundir import open_run
+
+
+def world_against_self(scene, tmp_dir, comm, min_peak: float) -> list:
+    """Run ``scene`` on ``comm`` and on rank 0 alone; the names of the interface
+    quantities, station histories and ``dt_s`` that are not bit-identical (on every
+    rank).  ``min_peak``: the slip rate [m/s] the run must exceed (it must slide)."""
+    runner.run_scene(scene, tmp_dir / "world", comm, quiet=True)
+    if comm.rank == 0:
+        runner.run_scene(scene, tmp_dir / "self", MPI.COMM_SELF, quiet=True)
+    comm.Barrier()
+    bad = None
+    if comm.rank == 0:
+        a, b = open_run(tmp_dir / "world"), open_run(tmp_dir / "self")
+        assert a.quantity("slip_rate").max() > min_peak, "the interface should slide"
+        bad = [name for name in a.names if not np.array_equal(a.quantity(name), b.quantity(name))]
+        bad += [f"stations/{st}/{q}" for st, d in a.stations.items() for q, v in d.items()
+                if not np.array_equal(np.asarray(v), np.asarray(b.stations[st][q]))]
+        bad += [] if a.summary["dt_s"] == b.summary["dt_s"] else ["dt_s"]
+    return comm.bcast(bad, root=0)
