@@ -62,6 +62,7 @@ class Snapshot:
         self.t, self.n, self.work = state.t, state.n, state.work_ext
         self.prev = np.array(state.u_imp_prev, copy=True)
         self.react = np.array(state.react_prev, copy=True)
+        self.act = state.act.copy()  # the rows awake in the run (a hand-set state would otherwise skip them)
         self.points = [a.copy() for a in model.interface.points]
 
     def state(self):
@@ -72,6 +73,7 @@ class Snapshot:
         st.t, st.n, st.work_ext = self.t, self.n, self.work
         st.u_imp_prev = self.prev.copy()
         st.react_prev = self.react.copy()
+        st.act[:] = self.act
         for a, s in zip(self.model.interface.points, self.points):
             a[...] = s
         return st

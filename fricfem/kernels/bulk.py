@@ -45,10 +45,11 @@ def _add_block(val, b, x0, x1, s0, s1):
     return s0, s1
 
 
-@numba.njit(cache=True)
+@numba.njit(inline="always", cache=True)
 def _row(ptr, col, val, x, I):
     """(K x)_{2I}, (K x)_{2I+1} for a row whose columns are all owned, summed
-    over its blocks in their stored (grid) order."""
+    over its blocks in their stored (grid) order.  Inlined (as :func:`_row_mixed`):
+    called as a kernel of its own once per row, it made the sweep ~2× slower."""
     s0 = 0.0
     s1 = 0.0
     for p in range(ptr[I], ptr[I + 1]):
@@ -57,7 +58,7 @@ def _row(ptr, col, val, x, I):
     return s0, s1
 
 
-@numba.njit(cache=True)
+@numba.njit(inline="always", cache=True)
 def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
     """The same for a boundary row, ``xg`` holding the gathered off-rank values:
     one pass in the stored (grid) order, owned and off-rank columns alike."""
@@ -177,6 +178,58 @@ def _wake_neighbours(ptr, col, act, n, I):
     act[I] = SPREAD
 
 
+_U0 = numba.uint64(0)
+_U1 = numba.uint64(1)
+_U2 = numba.uint64(2)
+_U3 = numba.uint64(3)
+_u64 = numba.uint64
+
+
+@numba.njit(inline="always", cache=True)
+def _row_u(ptr, col, val, x, I):
+    """:func:`_row` with unsigned indices (``I`` uint64): no wrap-around tests on
+    any index in the hot loop; the same sums in the same order."""
+    s0 = 0.0
+    s1 = 0.0
+    for p in range(ptr[I], ptr[I + _U1]):
+        j = _u64(col[p]) << _U1
+        b = _u64(p) << _U2
+        x0 = x[j]
+        x1 = x[j + _U1]
+        s0 += val[b] * x0
+        s0 += val[b + _U1] * x1
+        s1 += val[b + _U2] * x0
+        s1 += val[b + _U3] * x1
+    return s0, s1
+
+
+@numba.njit(cache=True)
+def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
+    """The plain update of the rows ``lo`` <= I < ``hi`` (uint64; none of them
+    special), adding each row's u·(K u) to ``uku`` in row order; returns it.
+
+    A kernel of its own, over unsigned indices, with one skip test per row
+    (quiet): the loop is then ~1.3× faster than with the special rows' test
+    inside it (numba 0.56 / LLVM 11 on x86-64)."""
+    n = ptr.size - 1
+    for I in range(lo, hi):
+        state = act[I]
+        if state == QUIET:
+            continue  # u = v = 0 here and at the neighbours: the update is exactly zero
+        s0, s1 = _row_u(ptr, col, val, u, I)
+        i = I << _U1
+        i1 = i + _U1
+        uku += u[i] * s0 + u[i1] * s1
+        c = dt_minv[I]
+        v[i] -= c * s0
+        unew[i] = u[i] + dt * v[i]
+        v[i1] -= c * s1
+        unew[i1] = u[i1] + dt * v[i1]
+        if state == ACTIVE and (unew[i] != 0.0 or unew[i1] != 0.0):
+            _wake_neighbours(ptr, col, act, n, numba.int64(I))
+    return uku
+
+
 @numba.njit(cache=True)
 def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act):
     """One pass over the owned block rows, the deferred special rows excepted.
@@ -199,39 +252,25 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
     sp_node, _, sp_deferred, _, _ = special
     dt = load[0]
     n = ptr.size - 1
-    k = 0
-    nxt = sp_node[0]
     uku = 0.0
     work = 0.0
     absorbed = 0.0
-    for I in range(n):
+    lo = _U0
+    for kk in range(sp_node.size):
+        I = sp_node[kk]
+        # the plain rows before this special one, then the special row: the rows in order
+        uku = _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, _u64(I), uku)
+        lo = _u64(I) + _U1
+        if I == n or sp_deferred[kk]:
+            continue  # the sentinel; or in sweep_deferred, once the messages are in
         i = 2 * I
-        if I == nxt:
-            kk = k
-            k += 1
-            nxt = sp_node[k]
-            if sp_deferred[kk]:
-                continue  # in sweep_deferred, once the messages are in
-            s0, s1 = _row(ptr, col, val, u, I)
-            uku += u[i] * s0 + u[i + 1] * s1
-            w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
-                                    imp_react, absorb)
-            work += w
-            absorbed += ab
-            if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
-                _wake_neighbours(ptr, col, act, n, I)
-            continue
-        state = act[I]
-        if state == QUIET:
-            continue  # u = v = 0 here and at the neighbours: the update is exactly zero
         s0, s1 = _row(ptr, col, val, u, I)
         uku += u[i] * s0 + u[i + 1] * s1
-        c = dt_minv[I]
-        v[i] -= c * s0
-        unew[i] = u[i] + dt * v[i]
-        v[i + 1] -= c * s1
-        unew[i + 1] = u[i + 1] + dt * v[i + 1]
-        if state == ACTIVE and (unew[i] != 0.0 or unew[i + 1] != 0.0):
+        w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
+                                imp_react, absorb)
+        work += w
+        absorbed += ab
+        if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
     return uku, work, absorbed
 
