@@ -310,3 +310,30 @@ def test_field_reader_with_dolfinx_loaded(run_plots):
     assert np.allclose(grid.bounds[:4], (0.0, 0.137, -0.075, 0.075))
     values = grid.cell_data["stress_difference"]
     assert values.shape == (grid.n_cells,) and values.min() >= 0.0 and values.max() > SIGMA0
+
+
+def test_tip_speed_figure_draws_the_summary_speeds_at_their_times(run_plots, tmp_path, monkeypatch):
+    """Panel (b) of tip_speed.png holds V_tip at ``v_tip_time_s`` (the centres of the
+    fitting windows), every value of the summary, to the last one — not against the
+    first per-step tip times, which ended the curve early."""
+    from fricfem.plot import common, tip
+
+    figures = {}
+
+    def keep(fig, path, **kw):
+        figures[Path(path).name] = fig
+        return common.save(fig, path, **kw)
+
+    monkeypatch.setattr(tip, "save", keep)
+    rundir, _ = run_plots
+    summary = rd.read_summary(rundir)
+    rec = summary["tip"]
+    tip.tip_speed(rec, tmp_path / "tip_speed.png", info=rd.run_info(rundir, summary=summary))
+    ax_v = figures["tip_speed.png"].axes[1]
+    curve = ax_v.lines[0]  # the V_tip line (every finite estimate, clipped to the frame)
+    t_want = np.asarray(rec["v_tip_time_s"]) * 1e6
+    v_want = np.asarray(rec["v_tip_m_s"])
+    assert np.array_equal(curve.get_xdata(), t_want)
+    assert np.allclose(curve.get_ydata(), np.clip(v_want, 0, ax_v.get_ylim()[1]), rtol=0, atol=0)
+    assert curve.get_xdata()[-1] == pytest.approx(rec["v_tip_time_s"][-1] * 1e6)
+    assert not np.array_equal(t_want, np.asarray(rec["time_s"][: len(v_want)]) * 1e6)  # the old bug would differ
