@@ -28,6 +28,7 @@ import argparse
 import json
 import os
 import random
+import shutil
 import signal
 import statistics
 import subprocess
@@ -169,7 +170,10 @@ def complete_run(args, out: Path) -> float:
 
 
 def kill_once(args, out: Path, ref: Path, at: float, plot: bool = True) -> dict:
-    """Start the run, SIGKILL it ``at`` seconds later, check what it left."""
+    """Start the run, SIGKILL it ``at`` seconds later, check what it left.  ``out`` is
+    emptied first: a run killed before it replaced the directory would otherwise
+    leave the previous run's complete outputs there, to be counted as its own."""
+    shutil.rmtree(out, ignore_errors=True)
     p = start(args, out)
     time.sleep(at)
     ended = p.poll() is not None
