@@ -14,6 +14,7 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from .kernels.watch import look
 from .scene.output_keys import frame_times
 from .scene.validate import field_steps
 
@@ -76,8 +77,10 @@ def closure_bound(limits: dict) -> float:
     return min(limits["energy_tol"], limits["energy_factor"] - 1.0)
 
 
-def watchdog_code(points, energy, limits: dict) -> int:
+def watchdog_code(points, energy, limits: dict, finite: bool | None = None) -> int:
     """0 if the step looks sane, else a code of :data:`_WATCH` (local, no communication).
+    ``finite``: whether the points' tractions and slip rates are all finite, when
+    already known (the monitor's one pass, :func:`fricfem.kernels.watch.look`).
 
     Every step: finite interface tractions and slip rates.  At energy steps
     (``output.energy_every``), with ε = :func:`closure_bound` and E the
@@ -100,7 +103,9 @@ def watchdog_code(points, energy, limits: dict) -> int:
     """
     if not limits["enabled"]:
         return 0
-    if not (_finite(points.Ts) and _finite(points.Tn) and _finite(points.slip_rate)):
+    if finite is None:
+        finite = _finite(points.Ts) and _finite(points.Tn) and _finite(points.slip_rate)
+    if not finite:
         return 1
     if energy is not None:
         if not all(np.isfinite(energy[k]) for k in ("kinetic", "strain", "external", "interface_work",
@@ -234,6 +239,7 @@ class Monitor:
         self.seconds = 0.0  # wall time spent here [s]
         self.glob = np.full(6, -1.0)
         self.local = np.empty(6)  # this rank's part of the step's one reduction
+        self.seen = np.empty(4)  # this rank's points after a step (fricfem.kernels.watch.look)
         self.background = None  # the runner's writer of the periodic summary (fricfem.runner.Background)
         self.spikes = Spikes(scene.watchdog["max_slip_rate"], model.comm)  # reported, never a stop
         self.t_loop0 = time.perf_counter()  # when the loop started (reset by the caller)
@@ -250,14 +256,15 @@ class Monitor:
         self.rec.station_step(st.t_interface)
         t1 = clock()
         cost["stations"] += t1 - t0
-        vmax = float(p.slip_rate.max()) if p.slip_rate.size else 0.0
-        local = self.local
-        local[:] = (-1.0, -np.inf, 1.0 if self.stop_requested else 0.0,
-                    1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0,
-                    watchdog_code(p, e if e is not None else self.end.get("energy"), scene.watchdog), vmax)
-        if vmax > 0:  # some point slides (a NaN: the watchdog stops the run in this step)
-            xs = x1[p.slip_rate > 0]
-            local[0], local[1] = xs.max(), -xs.min()
+        seen, local = self.seen, self.local
+        look(x1, p.slip_rate, p.Ts, p.Tn, seen)  # tip, first sliding, largest slip rate, finite?
+        energy = e if e is not None else self.end.get("energy")
+        code = 1 if seen[3] and scene.watchdog["enabled"] else 0
+        if not code and energy is not None:
+            code = watchdog_code(p, energy, scene.watchdog, finite=True)
+        local[0], local[1], local[4], local[5] = seen[0], seen[1], code, seen[2]
+        local[2] = 1.0 if self.stop_requested else 0.0
+        local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
         glob = self.glob
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         self.spikes.observe(glob[5], st.t_interface, p.slip_rate, x1)

@@ -347,14 +347,19 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
         write_record(out, summary)
 
     background = Background()
+    last_summary = [-math.inf]  # rank 0: when the periodic summary was last submitted
 
     def flush(st):
         rec.flush()
         if monitor.gauges is not None:
             monitor.gauges.flush()
-        summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation,
-                       slip_rate_spike=monitor.spikes.report())
-        if comm.rank == 0:  # the text now, the files while the loop goes on (a rename waits for the disk)
+        now = time.perf_counter()
+        if comm.rank == 0 and now - last_summary[0] >= scene.output["flush_every"]:
+            # the summary so far, every output.flush_every seconds (the rows go every flush):
+            # the text now, the files while the loop goes on (a rename waits for the disk)
+            last_summary[0] = now
+            summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation,
+                           slip_rate_spike=monitor.spikes.report())
             background.submit(_replace_files, record_texts(out, summary))
 
     state = State(model, skip_quiet=scene.skip_quiet)

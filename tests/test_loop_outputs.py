@@ -58,6 +58,50 @@ def test_buffered_snapshots_are_the_interface_at_their_steps(comm, tmp_dir_share
         assert np.array_equal(run.quantity("slip_rate")[:, :].max() > 0, True)  # it slid: rows not trivial
 
 
+def test_station_rows_are_the_interface_at_every_step(comm, tmp_dir_shared):
+    """Every station's row of every step equals, bit for bit, the interface read
+    directly after that step at the station's point — stations on both ranks'
+    parts of the interface, across several flushes, ``mu_app`` computed from the
+    rows as from the points, ``open`` as 0/1."""
+    xs = {"a": 0.5e-3, "b": 30e-3, "c": 70e-3, "d": 120e-3}
+    table = ", ".join(f"{k} = {v!r}" for k, v in xs.items())
+    scene = load_scene("case1", COARSE + ["time.end=15e-6", f"output.stations={{ {table} }}"])
+    seen = []
+
+    def probe(st):
+        seen.append(interface_profile(run_model[0].interface, [q.name for q in QUANTITIES]))
+
+    from fricfem.model.build import build_model
+
+    run_model = []
+
+    def build(sc, c):
+        pm, model = build_model(sc, c)
+        run_model.append(model)
+        return pm, model
+
+    out = tmp_dir_shared / "stations"
+    summary = run_scene(scene, out, comm, quiet=True, on_step=probe, build=build)
+    assert summary["complete"] and summary["steps"] == len(seen) > 3 * FLUSH_ROWS
+    if comm.rank == 0:
+        run = open_run(out)
+        assert sorted(run.stations) == sorted(xs)
+        x1 = seen[0]["x1"]
+        for name, x in xs.items():
+            st = run.stations[name]
+            k = int(np.argmin(np.abs(x1 - x)))
+            assert st["x1"] == x1[k] and len(st["time"]) == len(seen)
+            for q in QUANTITIES:
+                want = np.array([row[q.name][k] for row in seen], dtype=np.float64)
+                assert np.array_equal(np.asarray(st[q.name]), want), (name, q.name)
+        assert max(np.max(run.stations[n]["slip_rate"]) for n in xs) > 0  # it slid: rows not trivial
+    if comm.size > 1:  # the stations lie on more than one rank
+        allx = interface_profile(run_model[0].interface, [])["x1"]
+        mine = run_model[0].interface.geometry.x1
+        held = sum(1 for x in xs.values() if np.any(mine == allx[np.argmin(np.abs(allx - x))]))
+        assert sum(1 for h in comm.allgather(held) if h) > 1
+
+
 def test_summary_splits_the_loop_cost_by_part(comm, tmp_dir_shared):
     """summary.json's loop_cost: every part timed (µs per step, steps after the
     first), the parts summing to the total, the total within the loop's measured
@@ -87,11 +131,12 @@ def test_summary_splits_the_loop_cost_by_part(comm, tmp_dir_shared):
 def test_periodic_summary_and_final_progress_carry_the_spike(comm, tmp_dir_shared, capsys):
     """With a low report threshold the spike is in summary.json already while the
     run goes (the periodic flush), and in the run's last progress line."""
-    # the first spike at 4.5 µs (step 17 of 45 on the coarse mesh); a periodic summary
-    # every 10 steps, written by a background thread: looked at after every step, so
-    # that the writer's lag (milliseconds) cannot hide the later ones
+    # the first spike at 4.5 µs (step 17 of 45 on the coarse mesh); the summary so far is
+    # rewritten every output.flush_every seconds (1 ms here: at every flush, every 10 steps),
+    # by a background thread: looked at after every step, so that the writer's lag
+    # (milliseconds) cannot hide the later ones
     scene = load_scene("case1", COARSE + ["time.end=12e-6", "output.interface_every=0.05e-6",
-                                          "watchdog.max_slip_rate=0.01"])
+                                          "watchdog.max_slip_rate=0.01", "output.flush_every=1e-3"])
     out = tmp_dir_shared / "spike"
     during = []
 

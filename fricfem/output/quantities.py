@@ -51,6 +51,9 @@ class Quantity(NamedTuple):
     neg_label  label of the flipped quantity
     doc     meaning
     dtype   HDF5 dtype
+    attr    the :class:`~fricfem.model.interface.Points` array ``read`` returns as it
+            is ("" for a quantity computed from others: ``read`` of an object
+            holding those arrays computes it, e.g. from the stations' rows)
     """
 
     name: str
@@ -61,6 +64,7 @@ class Quantity(NamedTuple):
     neg_label: str = ""
     doc: str = ""
     dtype: str = "f8"
+    attr: str = ""
 
 
 def _mu_app(p):
@@ -70,19 +74,20 @@ def _mu_app(p):
 #: interface.h5 snapshot quantities, in file order.
 QUANTITIES = (
     Quantity("slip_rate", "m/s", lambda p: p.slip_rate, r"$\Delta\dot u_{\rm slip}$",
-             doc="frictional slip rate Δu̇_slip >= 0"),
+             doc="frictional slip rate Δu̇_slip >= 0", attr="slip_rate"),
     Quantity("jump_rate_s", "m/s", lambda p: p.rate_s, r"$\Delta\dot u_s$", True, r"$-\Delta\dot u_s$",
-             doc="tangential jump rate Δu̇_s over the last step"),
-    Quantity("shear_traction", "Pa", lambda p: p.Ts, r"$T_s$", True, r"$-T_s$", doc="shear traction T_s"),
-    Quantity("normal_traction", "Pa", lambda p: p.Tn, r"$T_n$", doc="normal traction T_n, compression positive"),
+             doc="tangential jump rate Δu̇_s over the last step", attr="rate_s"),
+    Quantity("shear_traction", "Pa", lambda p: p.Ts, r"$T_s$", True, r"$-T_s$", doc="shear traction T_s", attr="Ts"),
+    Quantity("normal_traction", "Pa", lambda p: p.Tn, r"$T_n$", doc="normal traction T_n, compression positive", attr="Tn"),
     Quantity("shear_traction_increment", "Pa", lambda p: p.dTs, r"$dT_s = \dot T_s\,dt$", True,
-             r"$-dT_s = -\dot T_s\,dt$", doc="change of T_s over the last step"),
-    Quantity("slip", "m", lambda p: p.slip, r"$\Delta u_{\rm slip}$", doc="accumulated frictional slip"),
+             r"$-dT_s = -\dot T_s\,dt$", doc="change of T_s over the last step", attr="dTs"),
+    Quantity("slip", "m", lambda p: p.slip, r"$\Delta u_{\rm slip}$", doc="accumulated frictional slip", attr="slip"),
     Quantity("jump_s", "m", lambda p: p.jump_s, r"$\Delta u_s$", True, r"$-\Delta u_s$",
-             doc="tangential jump Δu_s = u⁺ − u⁻"),
+             doc="tangential jump Δu_s = u⁺ − u⁻", attr="jump_s"),
     Quantity("mu_app", "", _mu_app, r"$\mu_{\rm app} = T_s/T_n$", True, r"$-\mu_{\rm app} = -T_s/T_n$",
              doc="apparent friction T_s/T_n (0 where open)"),
-    Quantity("open", "", lambda p: p.is_open, "open", doc="1 where the interface is open", dtype="i1"),
+    Quantity("open", "", lambda p: p.is_open, "open", doc="1 where the interface is open", dtype="i1",
+             attr="is_open"),
 )
 BY_NAME = {q.name: q for q in QUANTITIES}
 

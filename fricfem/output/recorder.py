@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
+from ..kernels.watch import take_rows
 from .quantities import ENERGY, FORMAT, QUANTITIES, unit
 from .regions import write_regions
 
@@ -90,8 +92,8 @@ class Recorder:
             xq = self.x1[k]
             local = np.flatnonzero(geom.x1 == xq)
             self.stations[name] = (xq, int(local[0]) if len(local) else -1)
-        self.station_buf = {name: [] for name in self.stations}
         self.station_n = {name: 0 for name in self.stations}
+        self._init_station_rows()
         self.snap_t: list = []  # rank 0: the rows gathered so far (times, and per quantity)
         self.n_local = len(geom.x1)
         self.n_local_all = self.comm.allgather(self.n_local)
@@ -201,12 +203,60 @@ class Recorder:
             self.snap_rows[q].extend(full[:, k])
         self.snap_t.extend(times)
 
+    def _init_station_rows(self) -> None:
+        """The stations this rank owns, and their rows buffer: a row a step of the
+        :class:`~fricfem.model.interface.Points` arrays the quantities read
+        (:data:`.quantities.QUANTITIES` ``attr``; one call a step,
+        :func:`fricfem.kernels.watch.take_rows`); the quantities computed from
+        others (``mu_app``) are computed from the rows when they are written."""
+        self.st_owned = [name for name, (_, q) in self.stations.items() if q >= 0]
+        self.st_index = np.array([self.stations[name][1] for name in self.st_owned], dtype=np.int64)
+        attrs = [q.attr for q in QUANTITIES if q.attr]
+        points = self.itf.points
+        self.st_float = tuple(a for a in attrs if getattr(points, a).dtype == np.float64)
+        self.st_other = tuple(a for a in attrs if a not in self.st_float)  # is_open (int8)
+        self.st_rows = np.empty((64, len(attrs), len(self.st_owned)))
+        self.st_t = np.empty(64)
+        self.st_k = 0
+        self._st_columns = None  # (points, float columns, other columns) of the last step
+
     def station_step(self, t: float) -> None:
         """Record the stations this rank owns (every step, local, no communication)."""
-        p = self.itf.points
-        for name, (_, q) in self.stations.items():
-            if q >= 0:
-                self.station_buf[name].append([t] + [float(qq.read(p)[q]) for qq in QUANTITIES])
+        if not self.st_owned:
+            return
+        p, k = self.itf.points, self.st_k
+        if self._st_columns is None or self._st_columns[0] is not p:
+            self._st_columns = (p, tuple(getattr(p, a) for a in self.st_float),
+                                tuple(getattr(p, a) for a in self.st_other))
+        if k == len(self.st_t):  # more steps than usual between two flushes
+            self.st_rows = np.concatenate([self.st_rows, np.empty_like(self.st_rows)])
+            self.st_t = np.concatenate([self.st_t, np.empty_like(self.st_t)])
+        _, floats, others = self._st_columns
+        take_rows(floats, self.st_index, self.st_rows, k, 0)
+        if others:
+            take_rows(others, self.st_index, self.st_rows, k, len(floats))
+        self.st_t[k] = t
+        self.st_k = k + 1
+
+    def _gather_stations(self) -> dict:
+        """The station rows since the last flush, from every rank, on rank 0:
+        {name: (times, {quantity: values})} (one gather; collective)."""
+        k, self.st_k = self.st_k, 0
+        mine = (self.st_owned, self.st_t[:k].copy(), self.st_rows[:k].copy())
+        parts = self.comm.gather(mine, root=0)
+        if self.comm.rank != 0:
+            return {}
+        attrs = self.st_float + self.st_other
+        out = {}
+        for name in self.stations:
+            held = [(t, rows[:, :, names.index(name)]) for names, t, rows in parts if name in names]
+            if not held or not sum(len(t) for t, _ in held):
+                continue
+            t = np.concatenate([t for t, _ in held])
+            rows = np.concatenate([r for _, r in held])
+            cols = SimpleNamespace(**{a: rows[:, j] for j, a in enumerate(attrs)})
+            out[name] = (t, {q.name: np.asarray(q.read(cols), dtype=np.float64) for q in QUANTITIES})
+        return out
 
     def energy(self, e: dict) -> None:
         if self.comm.rank == 0:
@@ -218,9 +268,7 @@ class Recorder:
         takes a row once its time is finite), each as plain bytes at its place
         (:class:`RawRows`)."""
         self._gather_rows()
-        bufs = {name: self.comm.gather(self.station_buf[name], root=0) for name in self.stations}
-        for name in self.stations:
-            self.station_buf[name] = []
+        stations = self._gather_stations()
         if self.comm.rank != 0:
             return
         f = self.h5
@@ -230,15 +278,12 @@ class Recorder:
             for q, rows in self.snap_rows.items():
                 f.write(q, n0, np.array(rows[n0:n1]))
             times.append(("time", n0, np.array(self.snap_t[n0:n1])))
-        for name, parts in bufs.items():
-            rows = [r for part in parts for r in part]
-            if not rows:
-                continue
-            a, m0 = np.array(rows), self.station_n[name]
-            for j, q in enumerate(QUANTITIES, start=1):
-                f.write(f"stations/{name}/{q.name}", m0, a[:, j])
-            times.append((f"stations/{name}/time", m0, a[:, 0]))
-            self.station_n[name] = m0 + len(a)
+        for name, (t, values) in stations.items():
+            m0 = self.station_n[name]
+            for q in QUANTITIES:
+                f.write(f"stations/{name}/{q.name}", m0, values[q.name])
+            times.append((f"stations/{name}/time", m0, t))
+            self.station_n[name] = m0 + len(t)
         k0, k1 = self.written["energy"], len(self.energy_rows)
         if k1 > k0:
             a = np.array(self.energy_rows[k0:k1])

@@ -130,7 +130,9 @@ SCHEMA = {
                                                              "digits, '_', '-', '.', not '.' or '..', unique "
                                                              "ignoring case; a scene's table replaces its base's"),
         "energy_every": Key(int, 50, "steps", 0, 10**9, "energy evaluation cadence (0: never)"),
-        "flush_every": Key(NUM, 2.0, "s", 0.0, 1e6, "wall-clock seconds between flushes", open_low=True),
+        "flush_every": Key(NUM, 2.0, "s", 0.0, 1e6, "wall-clock seconds between flushes (the rows also flush "
+                           "every 10 interface rows) and between rewrites of summary.json while the run goes",
+                           open_low=True),
         "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
         # gauges, frames and the photoelastic constants: fricfem/scene/output_keys.py checks them
         "gauges": Key(dict, {}, "m", doc="gauge name -> [x1, x2] inside a plate (x2 != 0: not on the interface): "
