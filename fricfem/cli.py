@@ -233,6 +233,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def main(argv=None) -> int:
+    from ._startup import lighten_imports
+
+    lighten_imports()  # ufl's and ffcx's version lookups without pkg_resources' scan (fricfem/_startup.py)
     logging.getLogger().setLevel(logging.WARNING)  # keep ffcx's compiler chatter quiet
     parser = _Parser(
         prog="fricfem", description="dynamic frictional sliding between two elastic plates struck at one edge")
