@@ -27,6 +27,9 @@ from mpi4py import MPI
 
 # Off-screen rendering through the VTK wheel's EGL window, no X server.
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+# No on-disk set-up cache (fricfem.model.diskcache): the suite neither reads nor fills the user's;
+# tests/test_setup_cache.py points it at its own directories.
+os.environ["FRICFEM_CACHE"] = "off"
 
 _COMM = MPI.COMM_WORLD
 _RANK = _COMM.rank

@@ -21,6 +21,7 @@ from .. import friction
 from ..step.fused import FusedBulk, block_rows
 from ..step.interface import Interface, RigidInterface
 from . import bodies as bodies_mod
+from . import diskcache
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
@@ -106,7 +107,10 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         V = function_space(pm.mesh)
         num = numbering(pm, V)
         cells = material if experiment is None else bodies_mod.cell_materials(num, pm.spec, material, experiment)
-        rows = canonical_rows(num, cells)
+        if experiment is None:  # this rank's rows from the on-disk cache when they are there (.diskcache)
+            rows = diskcache.cached_rows(pm.spec, material, num, comm, lambda: canonical_rows(num, cells))
+        else:
+            rows = canonical_rows(num, cells)
         K = petsc_matrix(num, rows, comm)
         mass = canonical_mass(num, cells.rho)
         dofs = impact_dofs(V, pm.facet_tags, impact_tags)
@@ -139,7 +143,12 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     launch = None
     if experiment is not None:  # the projectile's contact on the buffer joins the frictional interface
         interface, launch = bodies_mod.attach(num, K, mass, comm, interface, pm.spec, experiment)
-    lam = max_eigenvalue(K, mass, interface, num)
+    if experiment is None:  # λmax from the on-disk cache when it is there (.diskcache)
+        lam = diskcache.cached_lam((pm.spec, material, num, interface, interface_kind, impact_tags,
+                                    pulse.prescribed, absorbing), comm,
+                                   lambda: max_eigenvalue(K, mass, interface, num))
+    else:
+        lam = max_eigenvalue(K, mass, interface, num)
     dt_crit = 2.0 / math.sqrt(lam)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)

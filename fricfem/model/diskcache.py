@@ -1,0 +1,246 @@
+"""An on-disk cache of the costly, deterministic parts of a model's set-up, so
+that a new process running a scene already run skips them.
+
+What is kept, per key (a SHA-256 of everything the value depends on):
+
+    lam-<key>.json   λmax of M⁻¹(K + K_int) (:func:`.assembly.max_eigenvalue`),
+                     stored exactly (``float.hex``); one entry for all ranks,
+                     written by rank 0
+    rows-<key>.npz   this rank's rows of K (:func:`.assembly.canonical_rows`),
+                     one entry a rank (compressed), with a SHA-256 of its arrays
+
+The key holds the cache's :data:`FORMAT`, a digest of the source text of the
+modules whose code computes the values (:data:`SOURCES`), the versions of
+numpy, PETSc and dolfinx and the processor model, the mesh definition and
+the material, the number of ranks (λmax's reductions sum in an order that
+depends on it), and the partition (each rank's grid nodes); λmax's key
+adds the interface kind, the per-point stiffnesses C_n, C_s of every rank,
+the struck edges, whether the load is prescribed and the absorbing edges;
+the rows' key adds the rank.  A hit therefore gives the bits the same
+computation would give: a run with the cache is bit for bit a run without
+it.  A model with the experiment's bodies is not cached.
+
+Where: ``$FRICFEM_CACHE``, else ``$XDG_CACHE_HOME/fricfem``, else
+``~/.cache/fricfem``; ``FRICFEM_CACHE=off`` (or empty) turns it off.  Writes
+are atomic (a temporary file, then ``os.replace``); an unreadable, corrupted
+or foreign entry is ignored and written anew; a directory that cannot be
+made or written only means no cache.  The directory is kept under
+:data:`MAX_BYTES` (oldest entries removed first).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import platform
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+#: format of the entries (a change makes every older entry a miss)
+FORMAT = 1
+#: modules (relative to the package) whose code computes a cached value
+SOURCES = ("model/assembly.py", "model/grid.py", "model/mesh.py", "model/numbering.py", "model/interface.py",
+           "model/material.py", "model/diskcache.py", "step/interface.py", "kernels/interface.py")
+#: the cache directory's size cap [bytes]
+MAX_BYTES = 256 * 2**20
+_OFF = ("", "off", "0", "no", "false", "none")
+
+
+def cache_dir() -> Path | None:
+    """The cache directory, or None when the cache is off (``FRICFEM_CACHE``)."""
+    value = os.environ.get("FRICFEM_CACHE")
+    if value is not None:
+        return None if value.strip().lower() in _OFF else Path(value).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or "~/.cache"
+    return Path(base).expanduser() / "fricfem"
+
+
+@functools.lru_cache(maxsize=None)
+def code_version() -> str:
+    """SHA-256 of the :data:`SOURCES` and of the numerical libraries' versions."""
+    import dolfinx
+    import petsc4py
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(f"{FORMAT} {np.__version__} {petsc4py.__version__} {dolfinx.__version__} "
+                       f"{_processor()}".encode())
+    for rel in SOURCES:
+        path = root / rel
+        h.update(rel.encode() + b"\0" + (path.read_bytes() if path.is_file() else b"(none)") + b"\0")
+    return h.hexdigest()
+
+
+def _processor() -> str:
+    """The machine and processor model (a BLAS may pick its kernels, and so its
+    rounding, by processor: a cache shared between machines keeps their λmax apart)."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            model = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), "")
+    except OSError:
+        model = ""
+    return f"{platform.machine()} {model or platform.processor()}"
+
+
+def _digest(*parts) -> str:
+    """SHA-256 of ``parts``: arrays by dtype, shape and bytes, anything else by repr."""
+    h = hashlib.sha256()
+    for p in parts:
+        if isinstance(p, np.ndarray):
+            a = np.ascontiguousarray(p)
+            h.update(f"array {a.dtype.str} {a.shape}".encode())
+            h.update(a.data)
+        else:
+            h.update(f"{type(p).__name__} {p!r}".encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _model_parts(spec, material, num, comm) -> tuple:
+    return (code_version(), spec, material, comm.size, num.n_owned, num.node_of_block)
+
+
+def rows_key(spec, material, num, comm) -> str:
+    """The key of this rank's rows of K."""
+    return _digest("rows", *_model_parts(spec, material, num, comm), comm.rank)
+
+
+def lam_key(spec, material, num, comm, interface, interface_kind, impact_tags, prescribed, absorbing) -> str:
+    """The key of λmax, the same on every rank (collective: one allgather of a digest)."""
+    mine = _digest(*_model_parts(spec, material, num, comm), interface.points.Cn, interface.points.Cs)
+    ranks = comm.allgather(mine)
+    return _digest("lam", ranks, interface_kind, tuple(impact_tags), bool(prescribed), tuple(absorbing))
+
+
+# --- entries on disk
+
+def _write(path: Path, write) -> None:
+    """Write an entry atomically with ``write(file)``; any failure means no entry."""
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        os.replace(tmp, path)
+        tmp = None
+        _prune(path.parent)
+    except Exception:  # a cache that cannot be written is no cache
+        pass
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+
+
+def _prune(folder: Path, limit: int = MAX_BYTES) -> None:
+    """Remove the oldest entries until the folder holds at most ``limit`` bytes."""
+    entries = []
+    for e in os.scandir(folder):
+        if e.is_file() and (e.name.startswith("lam-") or e.name.startswith("rows-")):
+            st = e.stat()
+            entries.append((st.st_mtime, st.st_size, e.path))
+    total = sum(s for _, s, _ in entries)
+    for _, size, path in sorted(entries):
+        if total <= limit:
+            break
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+        total -= size
+
+
+def _rows_digest(ptr, cols, vals) -> np.ndarray:
+    return np.frombuffer(bytes.fromhex(_digest(ptr, cols, vals)), dtype=np.uint8)
+
+
+def load_rows(key: str, n_owned: int):
+    """The cached rows ``(ptr, cols, vals)`` of ``key``, or None (missing or bad)."""
+    root = cache_dir()
+    if root is None:
+        return None
+    try:
+        with np.load(root / f"rows-{key}.npz", allow_pickle=False) as z:
+            ptr, cols, vals, check = z["ptr"], z["cols"], z["vals"], z["digest"]
+        ok = (ptr.dtype == np.int64 and cols.dtype == np.int64 and vals.dtype == np.float64
+              and ptr.shape == (n_owned + 1,) and vals.shape == (len(cols), 4) and int(ptr[-1]) == len(cols)
+              and np.array_equal(check, _rows_digest(ptr, cols, vals)))
+        return (ptr, cols, vals) if ok else None
+    except Exception:  # missing, truncated, corrupted: a miss
+        return None
+
+
+def save_rows(key: str, rows: tuple) -> None:
+    """Keep this rank's rows under ``key`` (silently nothing without a usable cache)."""
+    root = cache_dir()
+    if root is None:
+        return
+    ptr, cols, vals = rows
+    arrays = {"ptr": ptr, "cols": cols, "vals": vals, "digest": _rows_digest(ptr, cols, vals)}
+    _write(root / f"rows-{key}.npz", lambda fh: _savez_fast(fh, arrays))
+
+
+def _savez_fast(fh, arrays: dict) -> None:
+    """``np.savez_compressed`` at zlib level 1 (a third of the time of its level 6, ~1.4× the bytes)."""
+    with zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
+        for name, a in arrays.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(a), allow_pickle=False)
+
+
+def cached_rows(spec, material, num, comm, compute) -> tuple:
+    """This rank's rows of K: from the cache, else ``compute()`` (then kept).  Not collective."""
+    if cache_dir() is None:
+        return compute()
+    key = rows_key(spec, material, num, comm)
+    rows = load_rows(key, num.n_owned)
+    if rows is None:
+        rows = compute()
+        save_rows(key, rows)
+    return rows
+
+
+def load_lam(key: str):
+    """The cached λmax of ``key`` (a float), or None."""
+    root = cache_dir()
+    if root is None:
+        return None
+    try:
+        entry = json.loads((root / f"lam-{key}.json").read_text())
+        if entry.get("format") != FORMAT or entry.get("key") != key:
+            return None
+        lam = float.fromhex(entry["lam"])
+        return lam if np.isfinite(lam) and lam > 0 else None
+    except Exception:  # missing, truncated, corrupted: a miss
+        return None
+
+
+def save_lam(key: str, lam: float) -> None:
+    root = cache_dir()
+    if root is None:
+        return
+    text = json.dumps({"format": FORMAT, "key": key, "lam": float(lam).hex(), "value": repr(float(lam))})
+    _write(root / f"lam-{key}.json", lambda fh: fh.write(text.encode()))
+
+
+def cached_lam(key_parts: tuple, comm, compute) -> float:
+    """λmax: from the cache (read on rank 0, broadcast), else ``compute()`` on
+    every rank (then kept by rank 0).  Collective.  ``key_parts``: the
+    arguments of :func:`lam_key` after ``comm``."""
+    if cache_dir() is None:  # the same environment on every rank
+        return compute()
+    spec, material, num, *rest = key_parts
+    key = lam_key(spec, material, num, comm, *rest)
+    lam = comm.bcast(load_lam(key) if comm.rank == 0 else None, root=0)
+    if lam is None:
+        lam = compute()
+        if comm.rank == 0:
+            save_lam(key, lam)
+    return lam
