@@ -193,3 +193,29 @@ def test_an_interrupted_run_says_its_mode_is_unknown(comm, tmp_dir_shared):
         with h5py.File(out / "interface.h5", "r") as f:
             assert len(f["time"]) == record["steps"] and np.isfinite(f["time"][:]).all()
         assert len(FieldReader(out / "fields.xdmf").times) == 1  # 8 µs written, 16 µs not reached
+
+
+@pytest.mark.parametrize("ended", ["at its end", "early"])
+def test_a_finished_interface_file_holds_exactly_its_rows(comm, tmp_dir_shared, ended):
+    """When a run ends, interface.h5 holds exactly the rows it computed, counted in
+    ``n_time`` and each group's ``n``, no NaN row, every value as the run recorded it:
+    a run that reached time.end (its laid-out file copied as it is, the counts
+    added) and one the tip stopped early (its rows copied into a smaller file)."""
+    sets = ["mesh.preset='coarse'", "output.fields=[]", "loading.v_imp=40", "time.end=16e-6",
+            "output.energy_every=7"] + (["time.stop_at_tip=0.005"] if ended == "early" else [])
+    seen = []
+    out = tmp_dir_shared / f"finished_{ended.replace(' ', '_')}"
+    s = runner.run_scene(load_scene("case1", sets), out, comm, quiet=True,
+                         on_step=lambda st: seen.append(st.n))
+    assert s["complete"] and (s["ended_early"] is not None) == (ended == "early")
+    if comm.rank == 0:
+        with h5py.File(out / quantities.INTERFACE_FILE, "r") as f:
+            n = int(f.attrs["n_time"])
+            assert n == f["time"].shape[0] == f["slip_rate"].shape[0] > 0
+            assert np.isfinite(f["time"][...]).all() and np.isfinite(f["slip_rate"][...]).all()
+            for name, g in f["stations"].items():
+                assert g.attrs["n"] == g["time"].shape[0] == s["steps"] and np.isfinite(g["time"][...]).all()
+            assert f["energy"].attrs["n"] == f["energy/time"].shape[0] == (s["steps"] - 1) // 7 + 1
+            assert np.all(np.diff(f["time"][...]) > 0)
+        run = open_run(out)
+        assert len(run.t) == n and np.array_equal(run.slip_rate, run.quantity("slip_rate"))
