@@ -24,3 +24,28 @@ def world_against_self(scene, tmp_dir, comm, min_peak: float) -> list:
                 if not np.array_equal(np.asarray(v), np.asarray(b.stations[st][q]))]
         bad += [] if a.summary["dt_s"] == b.summary["dt_s"] else ["dt_s"]
     return comm.bcast(bad, root=0)
+
+
+def h5_arrays(path) -> dict:
+    """Every dataset of an HDF5 file: {name: array}."""
+    import h5py
+
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def differing(a: dict, b: dict) -> list:
+    """Names of datasets whose bytes differ (or that one file lacks)."""
+    bad = sorted(set(a) ^ set(b))
+    for k in sorted(set(a) & set(b)):
+        x, y = np.asarray(a[k]), np.asarray(b[k])
+        if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
+            bad.append(k)
+    return bad
+
+
+def comms(comm):
+    """The 2-rank communicator and each rank alone (both under mpirun -n 2)."""
+    return [("world", comm)] + ([("self", MPI.COMM_SELF)] if comm.size > 1 else [])

@@ -10,10 +10,9 @@ plain ``pytest`` both are one rank.  Coarse mesh, 12 µs: ~0.3 s a run.
 
 from __future__ import annotations
 
-import h5py
-import numpy as np
 import pytest
 from mpi4py import MPI
+from rankcheck import comms, differing, h5_arrays
 
 from fricfem import scene as scene_mod
 from fricfem.model import build as build_mod
@@ -38,34 +37,11 @@ def _scene(items):
     return scene_mod.load("case1", QUICK + list(items))
 
 
-def _arrays(path) -> dict:
-    """Every dataset of an HDF5 file: {name: array}."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-    return out
-
-
-def _same_bits(a: dict, b: dict) -> list:
-    """Names of datasets whose bytes differ (or that one file lacks)."""
-    bad = sorted(set(a) ^ set(b))
-    for k in sorted(set(a) & set(b)):
-        x, y = np.asarray(a[k]), np.asarray(b[k])
-        if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
-            bad.append(k)
-    return bad
-
-
-def _comms(comm):
-    """The 2-rank communicator and each rank alone (both under mpirun -n 2)."""
-    return [("world", comm)] + ([("self", MPI.COMM_SELF)] if comm.size > 1 else [])
-
-
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_reused_model_gives_the_bits_of_a_fresh_one(tmp_dir_shared, comm, case):
     first, second = (_scene(items) for items in CASES[case])
     assert model_key(first) == model_key(second)
-    for where, c in _comms(comm):
+    for where, c in comms(comm):
         root = tmp_dir_shared / where / (f"rank{comm.rank}" if where == "self" else "")
         fresh = {name: run_scene(sc, root / f"fresh_{name}", c, quiet=True)
                  for name, sc in (("a", first), ("b", second))}
@@ -76,14 +52,14 @@ def test_reused_model_gives_the_bits_of_a_fresh_one(tmp_dir_shared, comm, case):
         assert (cache.misses, cache.hits) == (1, 2)
         c.barrier()
         for name, ref in (("a", "a"), ("b", "b"), ("a2", "a")):
-            got = _arrays(root / f"reused_{name}" / "interface.h5")
-            want = _arrays(root / f"fresh_{ref}" / "interface.h5")
+            got = h5_arrays(root / f"reused_{name}" / "interface.h5")
+            want = h5_arrays(root / f"fresh_{ref}" / "interface.h5")
             assert want["slip_rate"].size and want["stations/x5/slip_rate"].size
-            assert _same_bits(got, want) == [], f"{case} on {where}: {name} differs from a fresh run"
+            assert differing(got, want) == [], f"{case} on {where}: {name} differs from a fresh run"
             assert reused[name]["steps"] == fresh[ref]["steps"] and reused[name]["dt_s"] == fresh[ref]["dt_s"]
             assert reused[name].get("mode") == fresh[ref].get("mode")
         # the two scenes differ (else the comparison above proves nothing)
-        assert _same_bits(_arrays(root / "fresh_a" / "interface.h5"), _arrays(root / "fresh_b" / "interface.h5"))
+        assert differing(h5_arrays(root / "fresh_a" / "interface.h5"), h5_arrays(root / "fresh_b" / "interface.h5"))
         c.barrier()
 
 

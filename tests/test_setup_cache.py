@@ -15,10 +15,10 @@ import tempfile
 from pathlib import Path
 from types import SimpleNamespace
 
-import h5py
 import numpy as np
 import pytest
 from mpi4py import MPI
+from rankcheck import comms, differing, h5_arrays
 
 from fricfem import scene as scene_mod
 from fricfem.model import build as build_mod
@@ -32,29 +32,6 @@ QUICK = ["mesh.preset='coarse'", "time.end=12e-6", "output.fields=[]", "output.s
 
 def _scene(items=()):
     return scene_mod.load("case1", QUICK + list(items))
-
-
-def _arrays(path) -> dict:
-    """Every dataset of an HDF5 file: {name: array}."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-    return out
-
-
-def _differ(a: dict, b: dict) -> list:
-    """Names of datasets whose bytes differ (or that one file lacks)."""
-    bad = sorted(set(a) ^ set(b))
-    for k in sorted(set(a) & set(b)):
-        x, y = np.asarray(a[k]), np.asarray(b[k])
-        if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
-            bad.append(k)
-    return bad
-
-
-def _comms(comm):
-    """The 2-rank communicator and each rank alone (both under mpirun -n 2)."""
-    return [("world", comm)] + ([("self", MPI.COMM_SELF)] if comm.size > 1 else [])
 
 
 @pytest.fixture
@@ -80,7 +57,7 @@ def _run(scene, out: Path, c) -> tuple:
     """(summary, interface.h5 datasets) of a run on ``c``."""
     summary = run_scene(scene, out, c, quiet=True)
     c.barrier()
-    return summary, _arrays(out / "interface.h5")
+    return summary, h5_arrays(out / "interface.h5")
 
 
 def _same_run(got: tuple, want: tuple, what: str) -> None:
@@ -88,7 +65,7 @@ def _same_run(got: tuple, want: tuple, what: str) -> None:
     assert a0["slip_rate"].size and a0["stations/x5/slip_rate"].size
     assert s["dt_s"].hex() == s0["dt_s"].hex() and s["dt_crit_s"].hex() == s0["dt_crit_s"].hex(), what
     assert s["steps"] == s0["steps"], what
-    assert _differ(a, a0) == [], f"{what}: interface.h5 differs from a run without the cache"
+    assert differing(a, a0) == [], f"{what}: interface.h5 differs from a run without the cache"
 
 
 def _where(tmp_dir_shared, where, comm) -> Path:
@@ -97,7 +74,7 @@ def _where(tmp_dir_shared, where, comm) -> Path:
 
 def test_cached_setup_gives_the_bits_of_no_cache(tmp_dir_shared, comm, monkeypatch, counted):
     scene = _scene()
-    for where, c in _comms(comm):
+    for where, c in comms(comm):
         root = _where(tmp_dir_shared, where, comm)
         monkeypatch.setenv("FRICFEM_CACHE", "off")
         ref = _run(scene, root / "off", c)
@@ -127,7 +104,7 @@ def _contents(folder: Path) -> dict:
 
 def test_corrupted_entries_are_recomputed_and_rewritten(tmp_dir_shared, comm, monkeypatch, counted):
     scene = _scene()
-    for where, c in _comms(comm):
+    for where, c in comms(comm):
         root = _where(tmp_dir_shared, where, comm)
         cache = root / "cache"
         monkeypatch.setenv("FRICFEM_CACHE", "off")
