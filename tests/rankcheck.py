@@ -49,3 +49,12 @@ def differing(a: dict, b: dict) -> list:
 def comms(comm):
     """The 2-rank communicator and each rank alone (both under mpirun -n 2)."""
     return [("world", comm)] + ([("self", MPI.COMM_SELF)] if comm.size > 1 else [])
+
+
+def serial_env() -> dict:
+    """This process's environment without the MPI launcher's variables: a
+    subprocess started with it is a serial program of its own (one started from
+    a rank of mpirun would otherwise try to join that job and fail in MPI_Init)."""
+    import os
+
+    return {k: v for k, v in os.environ.items() if not k.startswith(("OMPI", "PMIX", "PMI_"))}

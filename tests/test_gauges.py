@@ -11,7 +11,6 @@ in plane stress, ν/(1 − ν) σ11 in plane strain), on top of the prestress S2
 """
 
 import math
-import os
 import subprocess
 import sys
 
@@ -23,6 +22,7 @@ from fricfem import load_scene, open_run, runner
 from fricfem.model.build import build_model
 from fricfem.output.gauges import GAUGES_FILE, LineGauges, evaluate, locate, open_gauges
 from fricfem.scene import SceneError
+from rankcheck import serial_env
 
 V_IMP = 10.0
 D = 5e-3  # gauges 5 mm from the struck edge, mid-plate
@@ -202,7 +202,7 @@ def test_frames_regions_and_a_live_read(comm, tmp_dir_shared):
                                  "output.frames={start=6e-6, interval=2e-6, count=4}",
                                  "output.gauges={g=[0.01, -0.002]}"])
     seen = []
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_"))}
+    env = serial_env()
     read = ("import sys, numpy as np; from fricfem.output.gauges import open_gauges; g = open_gauges(sys.argv[1]); "
             "print(len(g.time), int(np.isfinite(g.data['stress']).all() and np.isfinite(g.data['velocity']).all()))")
 

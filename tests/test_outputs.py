@@ -23,6 +23,7 @@ from fricfem import load_scene, open_run, runner
 from fricfem.output import quantities
 from fricfem.output.record import EVIDENCE_FILE, read_evidence, read_summary
 from fricfem.output.rundir import FieldReader
+from rankcheck import serial_env
 
 RANK = MPI.COMM_WORLD.rank
 SHORT = ["mesh.preset='coarse'", "loading.v_imp=10", "time.end=20e-6", "output.fields=[8e-6,16e-6]"]
@@ -138,7 +139,7 @@ def test_pyvista_reads_every_field(run):
             " 'u_max': float(np.abs(g.point_data['displacement']).max()),"
             " 's_median': float(np.median(g.cell_data['stress_difference']))})\n"
             "print(json.dumps(res))\n")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI", "PMIX"))}
+    env = serial_env()
     res = subprocess.run([sys.executable, "-c", code, str(out / "fields.xdmf")], capture_output=True, text=True,
                          env=env, timeout=120)
     got = json.loads(res.stdout.strip().splitlines()[-1])

@@ -12,7 +12,6 @@ collectives): the figures are drawn by both ranks independently.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -26,6 +25,7 @@ from fricfem.output import rundir as rd
 from fricfem.output import quantities
 from fricfem.plot import isochromatics as plot_iso
 from fricfem.plot import run as plot_run
+from rankcheck import serial_env
 
 SIGMA0, V_IMP = 6e6, 2.0  # Pa, m/s
 C_L, C_S, C_R = 2187.0, 1255.0, 1155.0  # m/s
@@ -291,7 +291,7 @@ def test_command_line(run_plots, tmp_path, monkeypatch, capsys):
 
 def test_module_entry_point():
     """``python -m fricfem.plot.run`` is a working command."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMI_", "PMIX_"))}
+    env = serial_env()
     res = subprocess.run([sys.executable, "-m", "fricfem.plot.run", "--help"], capture_output=True,
                          text=True, env=env, timeout=60)
     assert res.returncode == 0 and "RUNDIR" in res.stdout.upper()

@@ -17,6 +17,7 @@ from fricfem.output import quantities
 from fricfem import scene as scenes
 from fricfem import runner
 from fricfem.scene import SceneError
+from rankcheck import serial_env
 
 
 @pytest.mark.parametrize("name", sorted(scenes.shipped()))
@@ -128,7 +129,7 @@ def test_run_directory_reads_back(comm, tmp_dir_shared):
         )
         pytest.importorskip("pyvista")
         res = subprocess.run([sys.executable, "-c", code, str(out / "fields.xdmf")], capture_output=True,
-                             text=True, env={k: v for k, v in os.environ.items() if not k.startswith(("OMPI", "PMIX"))})
+                             text=True, env=serial_env())
         got = json.loads(res.stdout.strip().splitlines()[-1])
         assert len(got["times"]) == 2
         # σ1 − σ2 includes the prestress: Σ0 = 6 MPa far from the loading

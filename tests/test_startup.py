@@ -5,6 +5,8 @@ served by the real module, loaded then."""
 import subprocess
 import sys
 
+from rankcheck import serial_env
+
 CHECK = """
 import importlib.metadata, sys
 from fricfem._startup import lighten_imports
@@ -28,5 +30,6 @@ print("ok")
 
 
 def test_version_lookups_without_pkg_resources_and_the_real_module_on_demand():
-    res = subprocess.run([sys.executable, "-c", CHECK], capture_output=True, text=True, timeout=120)
+    res = subprocess.run([sys.executable, "-c", CHECK], capture_output=True, text=True, timeout=120,
+                         env=serial_env())
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr[-2000:]
