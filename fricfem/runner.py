@@ -19,9 +19,7 @@ line, and the outputs keep what was flushed (:func:`_guarded`).
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import signal
 import sys
 import threading
@@ -34,11 +32,11 @@ from mpi4py import MPI
 from . import scene as scene_mod
 from .model.build import build_model
 from .monitor import LOOP_PARTS, Monitor, Progress
-from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE, SUMMARY_FILE
+from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE
 from .output.gauges import GAUGES_FILE, GaugeWriter
 from .output import directory
 from .output.directory import RunDirError
-from .output.record import EVIDENCE_FILE, jsonable, split, whole, write_record
+from .output.record import record_texts, replace_texts, whole, write_record
 from .output.recorder import Recorder, planned_rows
 from .scene import Scene, SceneError
 from .scene.validate import check_identifier
@@ -63,26 +61,6 @@ def prepare_outdir(out: Path, comm, overwrite: bool):
     if problem:
         raise RunDirError(problem)
     return lock
-
-
-def record_texts(out: Path, record: dict) -> list:
-    """[(path, JSON text)] of the run's record as :func:`write_record` writes it
-    (evidence first, then the summary)."""
-    summary, evidence = split(record)
-    texts = [(out / EVIDENCE_FILE, json.dumps(jsonable(evidence), indent=2))] if evidence else []
-    return texts + [(out / SUMMARY_FILE, json.dumps(jsonable(summary), indent=2))]
-
-
-def _replace_files(texts) -> None:
-    """Each (path, text) written to a temporary name and renamed over the path."""
-    for path, text in texts:
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-        try:
-            tmp.write_text(text)
-            os.replace(tmp, path)
-        except OSError:
-            tmp.unlink(missing_ok=True)
-            raise
 
 
 class Background:
@@ -360,7 +338,7 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
             last_summary[0] = now
             summary.update(steps=st.n, t_s=st.t, initiation=monitor.initiation,
                            slip_rate_spike=monitor.spikes.report())
-            background.submit(_replace_files, record_texts(out, summary))
+            background.submit(replace_texts, record_texts(out, summary))
 
     state = State(model, skip_quiet=scene.skip_quiet)
     if model.bodies is not None:  # the projectile moves at t = 0

@@ -58,14 +58,16 @@ def jsonable(o):
     return o
 
 
-def _replace_json(path: Path, doc) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    try:
-        tmp.write_text(json.dumps(jsonable(doc), indent=2))
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
-        raise
+def replace_texts(texts) -> None:
+    """Each ``(path, text)`` written to a temporary name and renamed over the path."""
+    for path, text in texts:
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+        try:
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
 
 
 def _scalars(d: dict) -> dict:
@@ -126,13 +128,19 @@ def split(record: dict) -> tuple[dict, dict]:
     return summary, evidence
 
 
-def write_record(rundir, record: dict) -> None:
-    """Write ``evidence.json`` (when the record has any) and then ``summary.json``."""
+def record_texts(rundir, record: dict) -> list:
+    """``[(path, JSON text)]`` of a record: ``evidence.json`` (when the record has
+    any) first, then ``summary.json`` (the text can be made in one thread and
+    written in another: :func:`replace_texts`)."""
     rundir = Path(rundir)
     summary, evidence = split(record)
-    if evidence:
-        _replace_json(rundir / EVIDENCE_FILE, evidence)
-    _replace_json(rundir / SUMMARY_FILE, summary)
+    texts = [(rundir / EVIDENCE_FILE, json.dumps(jsonable(evidence), indent=2))] if evidence else []
+    return texts + [(rundir / SUMMARY_FILE, json.dumps(jsonable(summary), indent=2))]
+
+
+def write_record(rundir, record: dict) -> None:
+    """Write ``evidence.json`` (when the record has any) and then ``summary.json``."""
+    replace_texts(record_texts(rundir, record))
 
 
 def write_summary(rundir, summary: dict) -> None:
