@@ -258,10 +258,8 @@ class Monitor:
         cost["stations"] += t1 - t0
         seen, local = self.seen, self.local
         look(x1, p.slip_rate, p.Ts, p.Tn, seen)  # tip, first sliding, largest slip rate, finite?
-        energy = e if e is not None else self.end.get("energy")
-        code = 1 if seen[3] and scene.watchdog["enabled"] else 0
-        if not code and energy is not None:
-            code = watchdog_code(p, energy, scene.watchdog, finite=True)
+        code = watchdog_code(p, e if e is not None else self.end.get("energy"), scene.watchdog,
+                             finite=not seen[3])
         local[0], local[1], local[4], local[5] = seen[0], seen[1], code, seen[2]
         local[2] = 1.0 if self.stop_requested else 0.0
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0

@@ -30,8 +30,10 @@ def look(x1, slip_rate, Ts, Tn, out):
                 xmax = x1[i]
             if -x1[i] > mxmin:
                 mxmin = -x1[i]
-        if v > vmax or v != v:
-            vmax = v if vmax == vmax else vmax
+        if v != v:  # a NaN stays the largest (as in NumPy's max)
+            vmax = v
+        elif v > vmax:
+            vmax = v
     if vmax != vmax:  # a NaN slip rate: no tip this step (the watchdog stops the run)
         xmax, mxmin = -1.0, -np.inf
     out[0], out[1], out[2], out[3] = xmax, mxmin, vmax, bad

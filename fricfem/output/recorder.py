@@ -2,7 +2,7 @@
 energies (the format: :mod:`.quantities`).  Rank 0 writes; the others send.
 
 Off the step's path.  A snapshot only copies this rank's interface values into
-a local buffer, a station row is a few numbers kept in a list; a flush (every
+a local buffer, a station row is one numba call into another; a flush (every
 :data:`fricfem.monitor.FLUSH_ROWS` snapshots, or by wall time) gathers the
 buffered rows to rank 0 in one message and writes each dataset's new rows with
 one system call (:class:`RawRows`).  ``summary.json``'s ``loop_cost`` gives
@@ -213,26 +213,24 @@ class Recorder:
         self.st_owned = [name for name, (_, q) in self.stations.items() if q >= 0]
         self.st_index = np.array([self.stations[name][1] for name in self.st_owned], dtype=np.int64)
         attrs = [q.attr for q in QUANTITIES if q.attr]
-        points = self.itf.points
+        points = self.itf.points  # its arrays are updated in place for the whole run
         self.st_float = tuple(a for a in attrs if getattr(points, a).dtype == np.float64)
         self.st_other = tuple(a for a in attrs if a not in self.st_float)  # is_open (int8)
+        self.st_columns = (tuple(getattr(points, a) for a in self.st_float),
+                           tuple(getattr(points, a) for a in self.st_other))
         self.st_rows = np.empty((64, len(attrs), len(self.st_owned)))
         self.st_t = np.empty(64)
         self.st_k = 0
-        self._st_columns = None  # (points, float columns, other columns) of the last step
 
     def station_step(self, t: float) -> None:
         """Record the stations this rank owns (every step, local, no communication)."""
         if not self.st_owned:
             return
-        p, k = self.itf.points, self.st_k
-        if self._st_columns is None or self._st_columns[0] is not p:
-            self._st_columns = (p, tuple(getattr(p, a) for a in self.st_float),
-                                tuple(getattr(p, a) for a in self.st_other))
+        k = self.st_k
         if k == len(self.st_t):  # more steps than usual between two flushes
             self.st_rows = np.concatenate([self.st_rows, np.empty_like(self.st_rows)])
             self.st_t = np.concatenate([self.st_t, np.empty_like(self.st_t)])
-        _, floats, others = self._st_columns
+        floats, others = self.st_columns
         take_rows(floats, self.st_index, self.st_rows, k, 0)
         if others:
             take_rows(others, self.st_index, self.st_rows, k, len(floats))
