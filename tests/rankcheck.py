@@ -58,3 +58,19 @@ def serial_env() -> dict:
     import os
 
     return {k: v for k, v in os.environ.items() if not k.startswith(("OMPI", "PMIX", "PMI_"))}
+
+
+def count_calls(monkeypatch, targets: dict) -> dict:
+    """Replace each ``(module, function name)`` of ``targets`` by a wrapper that
+    counts its calls; returns ``{label: calls so far}``, updated as they happen."""
+    calls = dict.fromkeys(targets, 0)
+
+    def counted(label, fn):
+        def wrapper(*a, **k):
+            calls[label] += 1
+            return fn(*a, **k)
+        return wrapper
+
+    for label, (module, name) in targets.items():
+        monkeypatch.setattr(module, name, counted(label, getattr(module, name)))
+    return calls

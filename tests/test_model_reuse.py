@@ -12,11 +12,10 @@ from __future__ import annotations
 
 import pytest
 from mpi4py import MPI
-from rankcheck import comms, differing, h5_arrays
+from rankcheck import comms, count_calls, differing, h5_arrays
 
 from fricfem import scene as scene_mod
 from fricfem.model import build as build_mod
-from fricfem.model import mesh as mesh_mod
 from fricfem.model.reuse import ModelCache, model_key
 from fricfem.runner import run_scene
 
@@ -64,19 +63,7 @@ def test_reused_model_gives_the_bits_of_a_fresh_one(tmp_dir_shared, comm, case):
 
 
 def test_reuse_skips_mesh_assembly_and_eigenvalue(comm, monkeypatch):
-    calls = {"mesh": 0, "eig": 0}
-    mesh_build, eig = mesh_mod.build, build_mod.max_eigenvalue
-
-    def counted_mesh(*a, **k):
-        calls["mesh"] += 1
-        return mesh_build(*a, **k)
-
-    def counted_eig(*a, **k):
-        calls["eig"] += 1
-        return eig(*a, **k)
-
-    monkeypatch.setattr(build_mod.mesh_mod, "build", counted_mesh)
-    monkeypatch.setattr(build_mod, "max_eigenvalue", counted_eig)
+    calls = count_calls(monkeypatch, {"mesh": (build_mod.mesh_mod, "build"), "eig": (build_mod, "max_eigenvalue")})
     a, b = _scene(CASES["elastic"][0]), _scene(CASES["elastic"][1])
     stiff = _scene(CASES["elastic"][0] + ["interface.Cn=3e12", "interface.Cs=1e12"])
     cache = ModelCache(size=2)

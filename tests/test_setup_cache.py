@@ -18,7 +18,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from mpi4py import MPI
-from rankcheck import comms, differing, h5_arrays
+from rankcheck import comms, count_calls, differing, h5_arrays
 
 from fricfem import scene as scene_mod
 from fricfem.model import build as build_mod
@@ -37,20 +37,7 @@ def _scene(items=()):
 @pytest.fixture
 def counted(monkeypatch):
     """Counts of the computations the cache saves: λmax and this rank's rows of K."""
-    calls = {"eig": 0, "rows": 0}
-    eig, rows = build_mod.max_eigenvalue, build_mod.canonical_rows
-
-    def counted_eig(*a, **k):
-        calls["eig"] += 1
-        return eig(*a, **k)
-
-    def counted_rows(*a, **k):
-        calls["rows"] += 1
-        return rows(*a, **k)
-
-    monkeypatch.setattr(build_mod, "max_eigenvalue", counted_eig)
-    monkeypatch.setattr(build_mod, "canonical_rows", counted_rows)
-    return calls
+    return count_calls(monkeypatch, {"eig": (build_mod, "max_eigenvalue"), "rows": (build_mod, "canonical_rows")})
 
 
 def _run(scene, out: Path, c) -> tuple:
