@@ -1,4 +1,4 @@
-"""Run a batch of scenes: resumable, heaviest first, dealt to groups of ranks.
+"""Run a batch of scenes: resumable, heaviest first, taken by groups of ranks as they free up.
 
 Used by ``fricfem sweep``, the stability study and the paper demos.
 
@@ -14,9 +14,11 @@ A later batch reuses a job whose ``job.json`` holds the same identity
 (:func:`status`), so a killed batch picks up where it stopped.
 
 Under MPI the communicator is split into groups of ``ranks_per_job`` ranks;
-the jobs are sorted by expected cost, heaviest first, and dealt round-robin to
-the groups; each group runs its jobs one after another on its own
-communicator.  ``ranks_per_job = 1``: one serial run per rank (a sweep scales
+the jobs are sorted by expected cost, heaviest first, and each group takes the
+next job of that order whenever it is free (:class:`Counter`: an atomic
+fetch-and-add on rank 0, so a group that drew cheap points takes more of
+them), running its jobs one after another on its own communicator.  Which
+group runs a job does not change its results.  ``ranks_per_job = 1``: one serial run per rank (a sweep scales
 by points); ``= comm.size``: every job on all ranks (the paper demos).  A
 group keeps the models it built (:class:`fricfem.model.reuse.ModelCache`): a
 job on the same mesh and interface as an earlier one of its group reuses the
@@ -118,10 +120,46 @@ def status(job: Job) -> str:
     return "done" if same_identity(s.get("identity"), job.ident()) else "stale"
 
 
-def deal(jobs, groups: int) -> list:
-    """Round-robin over jobs sorted by expected cost (heaviest first): a list per group."""
-    order = sorted(jobs, key=lambda j: (-j.cost, j.key))
-    return [order[g::groups] for g in range(groups)]
+def order(jobs) -> list:
+    """The jobs by expected cost, heaviest first (ties by key): the order groups take them in."""
+    return sorted(jobs, key=lambda j: (-j.cost, j.key))
+
+
+class Counter:
+    """The place of the next job to take, shared by the groups of ranks of ``comm``.
+
+    One integer in an MPI window on rank 0 of ``comm``; the first rank of a
+    group takes a place with an atomic fetch-and-add (``MPI_Fetch_and_op``,
+    passive target: rank 0 need not be waiting for it) and tells the rest of
+    its group (``sub``).  Collective on ``comm`` to make and to :meth:`free`.
+    """
+
+    def __init__(self, comm, sub):
+        import numpy as np
+
+        self.comm, self.sub = comm, sub
+        self.win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)
+        if comm.rank == 0:
+            self.win.Lock(0, MPI.LOCK_EXCLUSIVE)
+            self.win.Put(np.zeros(1, dtype=np.int64), 0)
+            self.win.Unlock(0)
+        comm.Barrier()
+
+    def take(self) -> int:
+        """The next place (0, 1, 2, …: each place once over all groups; collective on ``sub``)."""
+        import numpy as np
+
+        got = None
+        if self.sub.rank == 0:
+            one, old = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+            self.win.Lock(0, MPI.LOCK_SHARED)
+            self.win.Fetch_and_op(one, old, 0, 0, MPI.SUM)
+            self.win.Unlock(0)
+            got = int(old[0])
+        return self.sub.bcast(got, root=0) if self.sub.size > 1 else got
+
+    def free(self) -> None:
+        self.win.Free()
 
 
 def run_scene_job(job: Job, comm, models=None) -> dict:
@@ -147,18 +185,27 @@ class Result(NamedTuple):
     wall_s: float
 
 
-def _free(comm) -> None:
-    """Runs on a sub-communicator leave PETSc objects to the garbage collector: free them now."""
+def _free(comm, keep: bool = True) -> None:
+    """Runs on a sub-communicator leave PETSc objects to the garbage collector: free them now.
+
+    ``keep``: what survives is then frozen (``gc.freeze``), so that the next
+    job's collection looks only at the objects made since: a full collection
+    walks every object of the process, ~55 ms a job once dolfinx, numba and a
+    model are loaded.  :meth:`Pool.close` unfreezes them (``keep=False``).
+    """
     gc.collect()
     petsc = sys.modules.get("petsc4py.PETSc")
     if petsc is not None and hasattr(petsc, "garbage_cleanup"):
         petsc.garbage_cleanup(comm)
+    if keep:
+        gc.freeze()
 
 
-def _run_group(jobs, comm, work, log, finished) -> list:
-    """Run ``jobs`` one after another on ``comm`` (collective on it)."""
+def _run_group(jobs, comm, work, log, finished, total: int) -> list:
+    """Run ``jobs`` ((place, job) pairs, taken as the iteration goes) one after
+    another on ``comm`` (collective on it); ``total``: the batch's size, for the log."""
     done = []
-    for k, job in enumerate(jobs):
+    for k, job in jobs:
         t0 = time.perf_counter()
         record = err = None
         if comm.rank == 0:  # a job running is not finished, whatever it was before
@@ -170,11 +217,11 @@ def _run_group(jobs, comm, work, log, finished) -> list:
         wall = time.perf_counter() - t0
         if record is not None and finished(record) and comm.rank == 0:
             (Path(job.dir) / JOB_FILE).write_text(json.dumps({"identity": job.ident(), "record": record},
-                                                              indent=1, default=str))
+                                                              default=str))  # unindented: json's C encoder
         if log is not None and comm.rank == 0:
             rec = record or {}
             what = err or rec.get("outcome") or (rec.get("mode") or {}).get("label") or rec.get("watchdog") or "done"
-            log(f"{k + 1}/{len(jobs)} {job.key}: {what} ({wall:.1f} s)")
+            log(f"{k + 1}/{total} {job.key}: {what} ({wall:.1f} s)")
         done.append(Result(job.key, record, err, wall))
         _free(comm)
         if record is not None and record.get("interrupted"):  # SIGTERM: leave the rest for a rerun
@@ -182,6 +229,15 @@ def _run_group(jobs, comm, work, log, finished) -> list:
                 log("interrupted (SIGTERM): stopping; rerun the same command to resume")
             break
     return done
+
+
+def _taken(counter: Counter, todo: list):
+    """(place, job) for the places ``counter`` gives this group, until the batch is done."""
+    while True:
+        k = counter.take()
+        if k >= len(todo):
+            return
+        yield k, todo[k]
 
 
 class Pool:
@@ -211,8 +267,16 @@ class Pool:
         if work is None:
             models = self.models
             work = (lambda job, c: run_scene_job(job, c, models)) if models is not None else run_scene_job
-        mine = deal(jobs, self.groups)[self.color]
-        done = _run_group(mine, self.sub, work, log, finished)
+        todo = order(jobs)
+        if self.groups == 1:
+            done = _run_group(enumerate(todo), self.sub, work, log, finished, len(todo))
+        else:
+            counter = Counter(self.comm, self.sub)
+            try:
+                done = _run_group(_taken(counter, todo), self.sub, work, log, finished, len(todo))
+            finally:
+                self.comm.Barrier()  # every group done with the counter
+                counter.free()
         leaders = self.comm.gather(done if (self.comm.rank % self.k == 0) else [], root=0)
         if self.comm.rank != 0:
             return None
@@ -223,7 +287,8 @@ class Pool:
         """Drop the cached models and free the sub-communicator (collective)."""
         if self.models is not None:
             self.models.clear()
-        _free(self.sub)
+        gc.unfreeze()  # what the jobs' collections froze is the collector's again
+        _free(self.sub, keep=False)
         if self.sub is not self.comm:
             self.sub.Free()
             self.sub = self.comm

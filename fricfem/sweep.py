@@ -16,8 +16,8 @@ computes those two maps too.
 Every grid point is one scene, BASE + ``--preset`` + ``--set`` + the point's
 ``loading.sigma0``, ``loading.v_imp`` and ``output.fields = []``, run into
 ``DIR/points/s<Σ0 MPa>_v<V m/s>/`` (a normal run directory) by the batch
-runner (:mod:`fricfem.batch`): resumable, heaviest first, dealt to groups of
-``--ranks-per-scene`` ranks, each group reusing one model for the scenes that
+runner (:mod:`fricfem.batch`): resumable, heaviest first, taken by groups of
+``--ranks-per-scene`` ranks as they free up, each group reusing one model for the scenes that
 share a mesh and interface (:mod:`fricfem.model.reuse`).  ``--adaptive``
 computes a coarse grid first and refines only where labels differ
 (:mod:`fricfem.adaptive`).  Then rank 0 writes

@@ -396,3 +396,65 @@ def test_bad_input_is_named():
         dg.classify(TIME, X1, np.zeros_like(T), {"c_l": 2186.0, "c_s": 1256.0, "sqrt2_c_s": 1776.0})
     with pytest.raises(ValueError, match="shape"):
         dg.fronts(TIME, X1, np.zeros((3, 3)), SPEEDS)
+
+
+def _slope_numpy(t, x):
+    t = np.asarray(t, dtype=np.float64)
+    x = np.asarray(x, dtype=np.float64)
+    dt = t - t.mean()
+    return float((dt * (x - x.mean())).sum() / (dt * dt).sum())
+
+
+def test_short_window_slope_is_numpys_to_the_bit():
+    """lsq_slope sums short windows in Python: the same bits as numpy's formula."""
+    from fricfem.analysis.tip import lsq_slope
+
+    rng = np.random.default_rng(7)
+    for trial in range(20000):
+        n = int(rng.integers(2, 11))
+        t = np.sort(rng.random(n)) * 10.0 ** rng.integers(-9, -3) + rng.random() * 1e-4
+        x = rng.random(n) * 10.0 ** rng.integers(-6, 0) * rng.choice([-1.0, 1.0])
+        args = (list(t), list(x)) if trial % 2 else (t, x)
+        assert lsq_slope(*args) == _slope_numpy(t, x), (n, t, x)
+
+
+def _regions_numpy(x1, s, threshold, min_points, floor, min_gap_points):
+    """The regions of one profile with numpy, run by run (the reference)."""
+    w = dg.cell_lengths(x1)
+    on = s > threshold
+    if not on.any():
+        return []
+    d = np.diff(np.concatenate(([0], on.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
+    if min_points > 1 or floor > 0.0:
+        peaks = np.array([s[a : b + 1].max() for a, b in zip(starts, ends)])
+        keep = (ends - starts + 1 >= min_points) & (peaks >= floor)
+        starts, ends = starts[keep], ends[keep]
+    if min_gap_points > 1 and starts.size > 1:
+        wide = (starts[1:] - ends[:-1] - 1) >= min_gap_points
+        starts = np.concatenate((starts[:1], starts[1:][wide]))
+        ends = np.concatenate((ends[:-1][wide], ends[-1:]))
+    cw = np.concatenate(([0.0], np.cumsum(w)))
+    out = []
+    for a, b in zip(starts.tolist(), ends.tolist()):
+        j = a + int(np.argmax(s[a : b + 1]))
+        out.append((a, b, float(x1[a]), float(x1[b]), float(cw[b + 1] - cw[a]), float(s[j]), float(x1[j])))
+    return out
+
+
+@pytest.mark.parametrize("params", [(0.0, 1, 0.0, 1), (0.0, 3, 0.0, 2), (0.0, 3, 1e-2, 2), (0.05, 2, 0.1, 4)])
+def test_compiled_regions_match_numpy_run_by_run(params):
+    """region_history's compiled pass gives the regions of the per-profile numpy
+    reference exactly, on random profiles with blips, gaps, ties and a NaN."""
+    rng = np.random.default_rng(3)
+    x1 = np.cumsum(rng.random(120) * 1e-4 + 1e-5)
+    rate = np.where(rng.random((60, 120)) < 0.45, rng.random((60, 120)) ** 3, 0.0)
+    rate[5, 10:20] = 0.5  # a tie: the first largest is the peak
+    rate[7, 20:40] = 0.0
+    rate[7, 25:30], rate[7, 31:36] = 0.2, 0.3
+    rate[7, 30] = np.nan  # a NaN in the gap a bridge closes
+    rate[8] = 0.0  # stuck everywhere
+    got = dg.regions.region_history(None, x1, rate, *params, dg.cell_lengths(x1))
+    for row, regs in zip(rate, got):
+        assert repr([tuple(r) for r in regs]) == repr(_regions_numpy(x1, row, *params))  # bits (NaN too)
+    assert any(len(r) > 1 for r in got) and any(not r for r in got)

@@ -381,10 +381,33 @@ def test_ranks_per_scene_gives_each_scene_its_bits_alone(tmp_dir_shared, comm):
             pair.Free()
 
 
-def test_deal_is_round_robin_heaviest_first():
-    jobs = [batch.Job(f"v{v}", Path("."), None, cost=float(v)) for v in range(5)]
-    groups = batch.deal(jobs, 2)
-    assert [j.cost for j in groups[0]] == [4.0, 2.0, 0.0] and [j.cost for j in groups[1]] == [3.0, 1.0]
+def test_order_is_heaviest_first():
+    jobs = [batch.Job(f"v{v}", Path("."), None, cost=float(v)) for v in (2, 0, 4, 1, 3)]
+    assert [j.cost for j in batch.order(jobs)] == [4.0, 3.0, 2.0, 1.0, 0.0]
+
+
+def test_free_groups_take_the_next_job(tmp_dir_shared, comm):
+    """A group that drew a long job takes no more while the others run the rest:
+    the groups take jobs from one shared counter as they free up (each job once)."""
+    import time
+
+    jobs = [batch.Job("long", tmp_dir_shared / "long", None, cost=9.0)]
+    jobs += [batch.Job(f"short{k}", tmp_dir_shared / f"short{k}", None, cost=1.0) for k in range(6)]
+
+    def work(job, c):
+        time.sleep(1.5 if job.key == "long" else 0.05)
+        return {"outcome": "ok", "rank": comm.rank}
+
+    results = batch.run_jobs(jobs, comm, work=work, finished=lambda r: False)
+    if comm.rank != 0:
+        assert results is None
+        return
+    assert [r.key for r in results] == [j.key for j in jobs]  # each job once, in the jobs' order
+    by = {r.key: r.record["rank"] for r in results}
+    if comm.size == 1:
+        assert set(by.values()) == {0}
+    else:  # the long job went to one group; the six short ones to the others
+        assert {by[f"short{k}"] for k in range(6)}.isdisjoint({by["long"]})
 
 
 def test_default_grid_is_the_papers_span():

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..output.rundir import jsonable
 from .fronts import edge_speeds, fronts_from_tracks, prior_speed, track_edges
-from .regions import cell_lengths, check_history, local_spacing, region_history
+from .regions import cell_lengths, check_history, region_history, spacings
 from .speeds import check_speeds, mach_numbers
 from .tip import tip_speed
 
@@ -160,6 +160,7 @@ def _coalescences(time, x1, regions, v_edge):
     t_k (within two point spacings).  Stick gaps that flicker open for a sample
     or two have no speeds and are not counted."""
     events = []
+    spacing = spacings(x1)
     for k in range(1, len(regions)):
         prev, regs = regions[k - 1], regions[k]
         if len(prev) < 2 or not regs:
@@ -173,7 +174,7 @@ def _coalescences(time, x1, regions, v_edge):
             a, b = prev[q], prev[q + 1]
             xa, xb = a.x_end + va * dt, b.x_start + vb * dt
             for r in regs:
-                tol = 2.0 * max(local_spacing(x1, r.i0), local_spacing(x1, r.i1))
+                tol = 2.0 * max(spacing[r.i0], spacing[r.i1])
                 if r.x_start - tol <= min(xa, xb) and max(xa, xb) <= r.x_end + tol:
                     events.append({"t": float(time[k]), "x_gap": 0.5 * (a.x_end + b.x_start),
                                    "x_start": r.x_start, "x_end": r.x_end})

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from ..output.rundir import jsonable
-from .regions import cell_lengths, check_history, local_spacing, region_history
+from .regions import cell_lengths, check_history, region_history, spacings
 from .speeds import check_speeds, mach_numbers, regime
 from .tip import lsq_slope, tip_speed
 
@@ -68,6 +68,7 @@ def track_edges(time, x1, regions, max_speed, v_prior, npts):
     first, each edge and track at most once.
     """
     n_p = x1.size
+    spacing = spacings(x1)  # looked up for every pair below
     tracks: list = []  # dict(edge, t, x, i (point index), k (sample), r (region index))
     open_ids: list = []
     for k, (tk, regs) in enumerate(zip(time, regions)):
@@ -89,9 +90,9 @@ def track_edges(time, x1, regions, max_speed, v_prior, npts):
                 else:
                     v = v_prior
                 x_pred = x_last + v * dt
-                h_last = local_spacing(x1, tr["i"][-1])
+                h_last = spacing[tr["i"][-1]]
                 for b, (x, i, _) in enumerate(cand):
-                    reach = max_speed * dt + 2.0 * max(h_last, local_spacing(x1, i))
+                    reach = max_speed * dt + 2.0 * max(h_last, spacing[i])
                     cost = abs(x - x_pred)
                     if abs(x - x_last) <= reach and cost <= reach:
                         pairs.append((cost, j, b))

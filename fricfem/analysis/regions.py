@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from ..output.rundir import jsonable
@@ -70,34 +71,82 @@ def slip_regions(x1, slip_rate_row, threshold: float = 0.0, *, min_points: int =
     """
     x1 = np.asarray(x1, dtype=np.float64)
     s = np.asarray(slip_rate_row, dtype=np.float64)
-    w = cell_lengths(x1) if weights is None else weights
-    on = s > threshold
-    if not on.any():
-        return []
-    d = np.diff(np.concatenate(([0], on.astype(np.int8), [0])))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
-    if min_points > 1 or floor > 0.0:
-        peaks = np.maximum.reduceat(s, starts)
-        keep = (ends - starts + 1 >= min_points) & (peaks >= floor)
-        starts, ends = starts[keep], ends[keep]
-        if starts.size == 0:
-            return []
-    if min_gap_points > 1 and starts.size > 1:
-        wide = (starts[1:] - ends[:-1] - 1) >= min_gap_points
-        starts = np.concatenate((starts[:1], starts[1:][wide]))
-        ends = np.concatenate((ends[:-1][wide], ends[-1:]))
-    cw = np.concatenate(([0.0], np.cumsum(w)))
-    out = []
-    for a, b in zip(starts.tolist(), ends.tolist()):
-        j = a + int(np.argmax(s[a : b + 1]))
-        out.append(Region(a, b, float(x1[a]), float(x1[b]), float(cw[b + 1] - cw[a]), float(s[j]), float(x1[j])))
-    return out
+    return region_history(None, x1, s[None, :], threshold, min_points, floor, min_gap_points, weights)[0]
 
 
 def region_history(time, x1, slip_rate, threshold, min_points, floor, min_gap_points, w):
-    return [slip_regions(x1, row, threshold, min_points=min_points, floor=floor,
-                         min_gap_points=min_gap_points, weights=w) for row in slip_rate]
+    """:func:`slip_regions` of every row of ``slip_rate`` [n_t, n_p] (``time`` unused):
+    one compiled pass over the history (:func:`_runs`), then the regions."""
+    x1 = np.asarray(x1, dtype=np.float64)
+    rate = np.ascontiguousarray(slip_rate, dtype=np.float64)
+    w = cell_lengths(x1) if w is None else np.asarray(w, dtype=np.float64)
+    found, peaks = _runs(rate, float(threshold), int(min_points), float(floor), int(min_gap_points))
+    x = x1.tolist()
+    cw = np.concatenate(([0.0], np.cumsum(w))).tolist()
+    out: list = [[] for _ in range(rate.shape[0])]
+    for (r, a, b, j), peak in zip(found.tolist(), peaks.tolist()):
+        out[r].append(Region(a, b, x[a], x[b], cw[b + 1] - cw[a], peak, x[j]))
+    return out
+
+
+@numba.njit(cache=True)
+def _runs(rate, threshold, min_points, floor, min_gap_points):
+    """The regions of every row: (row, first, last, index of the peak) [n, 4] and
+    the peaks [n].  Runs of rate > threshold; with ``min_points > 1`` or
+    ``floor > 0`` those shorter than ``min_points`` or peaking below ``floor``
+    dropped; then runs fewer than ``min_gap_points`` points apart joined; the
+    peak at the first largest value of the joined region (a NaN in a bridged
+    gap counts as the largest, as in ``np.argmax``)."""
+    n_t, n_p = rate.shape
+    found = np.empty((n_t * ((n_p + 1) // 2), 4), dtype=np.int64)
+    peaks = np.empty(found.shape[0])
+    filt = min_points > 1 or floor > 0.0
+    n = 0
+    for r in range(n_t):
+        row = rate[r]
+        first = n  # this row's regions are found[first:n]
+        i = 0
+        while i < n_p:
+            if not row[i] > threshold:
+                i += 1
+                continue
+            a = i
+            top = row[i]
+            while i + 1 < n_p and row[i + 1] > threshold:
+                i += 1
+                if row[i] > top:
+                    top = row[i]
+            b = i
+            i += 1
+            if filt and (b - a + 1 < min_points or not top >= floor):
+                continue
+            if min_gap_points > 1 and n > first and a - found[n - 1, 2] - 1 < min_gap_points:
+                found[n - 1, 2] = b  # joined to the region before
+                continue
+            found[n, 0] = r
+            found[n, 1] = a
+            found[n, 2] = b
+            n += 1
+        for k in range(first, n):
+            a, b = found[k, 1], found[k, 2]
+            j = a
+            for q in range(a + 1, b + 1):
+                if row[j] != row[j]:
+                    break
+                if row[q] > row[j] or row[q] != row[q]:
+                    j = q
+            found[k, 3] = j
+            peaks[k] = row[j]
+    return found[:n], peaks[:n]
+
+
+def spacings(x1) -> list:
+    """:func:`local_spacing` of every point (a list: looked up one at a time)."""
+    x1 = np.asarray(x1, dtype=np.float64)
+    if x1.size < 2:
+        return [0.0] * x1.size
+    d = np.diff(x1)
+    return np.maximum(np.concatenate(([0.0], d)), np.concatenate((d, [0.0]))).tolist()
 
 
 def local_spacing(x1, i) -> float:

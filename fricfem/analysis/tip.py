@@ -67,12 +67,42 @@ def tip_speed(t, x, npts: int = 5):
 
 
 def lsq_slope(t, x) -> float:
+    """Least-squares slope of x against t (nan for fewer than 2 samples).
+
+    The tracking of fronts calls it thousands of times a run on windows of a
+    few samples, where numpy's set-up costs ~20 times the arithmetic: up to
+    :data:`_SHORT` samples it is done in Python with numpy's own order of
+    operations (numpy's pairwise sum adds fewer than 8 values one after
+    another, ((v0 + v1) + v2) + …), so the result is the same to the bit
+    (``tests/test_diagnostics.py``).
+    """
+    n = len(t)
+    if 2 <= n <= _SHORT and n == len(x):
+        t = [float(v) for v in t]
+        x = [float(v) for v in x]
+        tm = _sum(t) / n
+        xm = _sum(x) / n
+        dt = [v - tm for v in t]
+        return _sum([a * (b - xm) for a, b in zip(dt, x)]) / _sum([a * a for a in dt])
     t = np.asarray(t, dtype=np.float64)
     x = np.asarray(x, dtype=np.float64)
     if t.size < 2:
         return math.nan
     dt = t - t.mean()
     return float((dt * (x - x.mean())).sum() / (dt * dt).sum())
+
+
+#: the longest window :func:`lsq_slope` sums in Python (numpy adds fewer than
+#: 8 values one after another; from 8 on, in eight interleaved partial sums)
+_SHORT = 7
+
+
+def _sum(v: list) -> float:
+    """Σ v in numpy's order for 2 to :data:`_SHORT` values: ((v0 + v1) + v2) + …"""
+    r = v[0]
+    for a in v[1:]:
+        r += a
+    return r
 
 
 def tip_record(time, x1, slip_rate, every: int = 1, npts: int = 5) -> dict:
