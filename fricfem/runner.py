@@ -220,6 +220,7 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
             if monitor.first_step_s is None:  # the parts are timed from the second step on
                 monitor.first_step_s = time.perf_counter() - monitor.t_loop0
                 monitor.cost.update(dict.fromkeys(monitor.cost, 0.0))
+                st.seconds.update(dict.fromkeys(st.seconds, 0.0))
                 monitor.energy_steps = 0
             if on_step is not None:
                 on_step(st)
@@ -394,6 +395,12 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     summary["wall_s"] = {**wall, "output": output_s, "total": time.perf_counter() - t_start}
     summary["us_per_step"] = 1e6 * wall["time_loop"] / max(state.n, 1)
     summary["loop_cost"] = loop_cost(monitor, state.n, wall["time_loop_with_outputs"])
+    # the step's parts on every rank: a rank that waits for another shows it in "interface"
+    # (the interface's exchanges) or "wait" (the ghost exchange)
+    parts = {k: 1e6 * v / max(state.n - 1, 1) for k, v in state.seconds.items()}
+    by_rank = comm.gather(parts, root=0)
+    if by_rank is not None and state.n > 1:
+        summary["loop_cost"]["step_by_rank"] = by_rank
     if comm.rank == 0:
         write_record(out, summary)
     return comm.bcast(whole(summary) if comm.rank == 0 else None, root=0)

@@ -124,6 +124,10 @@ def test_summary_splits_the_loop_cost_by_part(comm, tmp_dir_shared):
     assert lc["step"] > 0 and lc["watch"] > 0 and lc["snapshots"] > 0
     assert lc["total"] <= lc["wall"] * 1.0001  # the parts are inside the loop's wall time
     assert 0 < lc["outputs_share"] < 1
+    # the step's parts on every rank, inside the step's time on rank 0
+    assert len(lc["step_by_rank"]) == comm.size
+    assert all(r["sweep"] > 0 and r["interface"] > 0 and r["wait"] >= 0 for r in lc["step_by_rank"])
+    assert sum(lc["step_by_rank"][0].values()) <= (lc["step"] + lc["energy"]) * 1.0001
     if comm.rank == 0:
         assert json.loads((out / "summary.json").read_text())["loop_cost"] == s["loop_cost"]
 
