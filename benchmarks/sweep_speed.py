@@ -116,9 +116,45 @@ def sweep_run(out: Path, ranks: int, args: list) -> dict:
     sweep_wall = doc["calls"][-1]["wall_s"]
     m.pop("stdout")
     return {**m, "sweep_wall_s": sweep_wall, "scenes": len(doc["points"]), "sum_time_loop_s": sum(loops),
-            "sum_setup_s": sum(setups), "sum_output_s": sum(outputs),
+            "sum_setup_s": sum(setups), "sum_output_s": sum(outputs), "rank_busy_s": rank_busy(out),
+            "diagnose": diagnose_time(out, doc),
             "ratio_to_loops": sweep_wall / (sum(loops) / ranks), "labels": doc["labels"]["values"],
             "incomplete": doc["incomplete"], "dir": str(out)}
+
+
+def rank_busy(out: Path) -> dict:
+    """{rank: the sum of its points' run times [s]} from ``sweep.log`` (how evenly the
+    groups were loaded: they take points as they free up)."""
+    busy: dict = {}
+    for line in (out / "sweep.log").read_text().splitlines():
+        m = re.search(r"\[rank (\d+)\] \d+/\d+ \S+: .* \(([\d.]+) s\)$", line)
+        if m:
+            busy[m.group(1)] = busy.get(m.group(1), 0.0) + float(m.group(2))
+    return busy
+
+
+def diagnose_time(out: Path, doc: dict) -> dict:
+    """The run's diagnostics (fronts and the mode, as each point's run does at its
+    end) timed again here over every point of the map, serially; the labels must be
+    the points' own."""
+    import numpy as np
+
+    import fricfem
+    from fricfem import analysis
+
+    took, same = [], True
+    for p in doc["points"]:
+        d = out / p["dir"]
+        s = json.loads((d / "summary.json").read_text())
+        r = fricfem.open_run(d)
+        t, x1, rate = np.asarray(r.t), np.asarray(r.x1), np.asarray(r.slip_rate)
+        t0 = time.perf_counter()
+        analysis.fronts(t, x1, rate, s["speeds"])
+        label, _ = analysis.classify(t, x1, rate, s["speeds"])
+        took.append(time.perf_counter() - t0)
+        same &= label == (s.get("mode") or {}).get("label")
+    return {"points": len(took), "median_ms": 1e3 * statistics.median(took), "total_s": sum(took),
+            "same_labels": same}
 
 
 def committed_labels() -> list:
@@ -338,6 +374,13 @@ def markdown(res: dict) -> str:
                      + (f"; identical to the committed map (docs/reproduction/modemap_push_v1.json): "
                         f"{m8['same_labels_as_committed_map']}" if "same_labels_as_committed_map" in m8 else "")
                      + ".\n")
+        if "rank_busy_s" in r:
+            busy = ", ".join(f"rank {k} {v:.1f} s" for k, v in sorted(r["rank_busy_s"].items()))
+            dg = r["diagnose"]
+            lines.append(f"With reuse, the points' run times summed per rank (the groups take points as they "
+                         f"free up): {busy}. The points' diagnostics (fronts and mode, as each run does at its "
+                         f"end), timed again serially over the {dg['points']} points: median {dg['median_ms']:.1f} ms "
+                         f"a point, {dg['total_s']:.2f} s in all; the same labels: {dg['same_labels']}.\n")
     ad, full = res.get("adaptive"), res.get("full32")
     if full:
         lines += ["## Full 32 × 32 map (run once)\n",
