@@ -161,15 +161,24 @@ class Spikes:
         self.first = None  # (time, x1) of the first slip rate above the threshold
         self.steps_above = 0
 
-    def observe(self, vmax: float, t: float, rates, x1) -> None:
+    def observe(self, vmax: float, t: float, rates, x1, local=None) -> None:
         """After a step: ``vmax`` the largest slip rate on every rank, ``rates`` and
-        ``x1`` this rank's points at time ``t``."""
+        ``x1`` this rank's points at time ``t``; ``local``: (this rank's largest slip
+        rate, x1 of its first point with it) when already known (the monitor's
+        pass, :func:`fricfem.kernels.watch.look`)."""
         if vmax > self.threshold:
             self.steps_above += 1
         if not vmax > self.peak:  # also a NaN (the watchdog stops on it)
             return
-        here = float(x1[np.argmax(rates)]) if rates.size and rates.max() == vmax else -np.inf
-        self.peak, self.time, self.x1 = float(vmax), t, self.comm.allreduce(here, op=MPI.MAX)
+        if local is None:
+            here = float(x1[np.argmax(rates)]) if rates.size and rates.max() == vmax else -np.inf
+        else:
+            here = float(local[1]) if local[0] == vmax else -np.inf
+        if self.comm.size > 1:
+            buf = np.array([here])
+            self.comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MAX)
+            here = float(buf[0])
+        self.peak, self.time, self.x1 = float(vmax), t, here
         if self.first is None and vmax > self.threshold:
             self.first = (t, self.x1)
 
@@ -239,7 +248,7 @@ class Monitor:
         self.seconds = 0.0  # wall time spent here [s]
         self.glob = np.full(6, -1.0)
         self.local = np.empty(6)  # this rank's part of the step's one reduction
-        self.seen = np.empty(4)  # this rank's points after a step (fricfem.kernels.watch.look)
+        self.seen = np.empty(5)  # this rank's points after a step (fricfem.kernels.watch.look)
         self.background = None  # the runner's writer of the periodic summary (fricfem.runner.Background)
         self.spikes = Spikes(scene.watchdog["max_slip_rate"], model.comm)  # reported, never a stop
         self.t_loop0 = time.perf_counter()  # when the loop started (reset by the caller)
@@ -265,7 +274,7 @@ class Monitor:
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
         glob = self.glob
         self.comm.Allreduce(local, glob, op=MPI.MAX)
-        self.spikes.observe(glob[5], st.t_interface, p.slip_rate, x1)
+        self.spikes.observe(glob[5], st.t_interface, p.slip_rate, x1, (seen[2], seen[4]))
         if glob[0] >= 0:
             self.tip_t.append(st.t_interface)
             self.tip_x.append(glob[0])

@@ -220,3 +220,18 @@ def test_a_finished_interface_file_holds_exactly_its_rows(comm, tmp_dir_shared, 
             assert np.all(np.diff(f["time"][...]) > 0)
         run = open_run(out)
         assert len(run.t) == n and np.array_equal(run.slip_rate, run.quantity("slip_rate"))
+
+
+def test_mu_app_is_the_masked_division():
+    """mu_app = T_s/T_n where T_n > 0, else 0: the same bits as NumPy's masked division
+    (NaN and zero normal tractions included)."""
+    from types import SimpleNamespace
+
+    from fricfem.output.quantities import BY_NAME
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        Tn, Ts = rng.normal(size=300) * 1e6, rng.normal(size=300) * 1e6
+        Tn[::7], Tn[::11], Ts[::13] = 0.0, np.nan, np.nan
+        got = BY_NAME["mu_app"].read(SimpleNamespace(Ts=Ts, Tn=Tn))
+        assert got.tobytes() == np.divide(Ts, Tn, out=np.zeros_like(Ts), where=Tn > 0).tobytes()

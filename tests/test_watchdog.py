@@ -153,3 +153,45 @@ def test_old_watchdog_keys_still_load():
     assert closure_bound(tight.watchdog) == pytest.approx(1e-9)
     with pytest.raises(SceneError, match="watchdog.energy_tol = 0.0 : must lie in"):
         load_scene("case1", ["watchdog.energy_tol=0.0"])
+
+
+def test_look_agrees_with_numpy():
+    """The monitor's one pass (kernels.watch.look) gives what NumPy gives: the tip,
+    the first sliding, the largest slip rate and the x1 of its first point
+    (np.argmax), the finite flag; with ties, all-stuck, a NaN and no points."""
+    from fricfem.kernels.watch import look
+
+    rng = np.random.default_rng(5)
+    x1 = np.sort(rng.random(40))
+    cases = [np.where(rng.random(40) < 0.3, rng.random(40), 0.0) for _ in range(20)]
+    cases += [np.zeros(40), np.r_[np.zeros(10), 2.0, 1.0, 2.0, np.zeros(27)], np.r_[1.0, np.nan, np.zeros(38)]]
+    for rates in cases:
+        out = np.empty(5)
+        look(x1, rates, np.zeros(40), np.zeros(40), out)
+        slides = rates > 0
+        nan = np.isnan(rates).any()
+        assert out[0] == (-1.0 if nan or not slides.any() else x1[slides].max())
+        assert out[1] == (-np.inf if nan or not slides.any() else -x1[slides].min())
+        assert (np.isnan(out[2]) and nan) or out[2] == rates.max()
+        if not nan:
+            assert out[4] == x1[np.argmax(rates)]
+        assert out[3] == float(nan)
+    out = np.empty(5)
+    look(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), out)
+    assert list(out) == [-1.0, -np.inf, 0.0, 0.0, -np.inf]
+
+
+def test_spikes_take_the_place_from_the_monitors_pass(comm):
+    """Spikes.observe given (local largest, its x1) reports what it finds by itself."""
+    from fricfem.kernels.watch import look
+
+    a, b = Spikes(100.0, comm), Spikes(100.0, comm)
+    x1 = np.array([0.01, 0.02, 0.03]) + 0.1 * comm.rank
+    for t, rates in ((1e-6, [5.0, 50.0, 50.0]), (2e-6, [150.0, 0.0, 150.0]), (3e-6, [0.0, 400.0, 3.0])):
+        mine = np.array(rates) * (1.0 + comm.rank)
+        seen = np.empty(5)
+        look(x1, mine, np.zeros(3), np.zeros(3), seen)
+        vmax = comm.allreduce(float(mine.max()), op=MPI.MAX)
+        a.observe(vmax, t, mine, x1)
+        b.observe(vmax, t, mine, x1, (seen[2], seen[4]))
+    assert a.report() == b.report() and a.report()["x1_m"] == pytest.approx(0.02 + 0.1 * (comm.size - 1))

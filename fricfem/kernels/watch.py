@@ -19,8 +19,11 @@ import numpy as np
 def look(x1, slip_rate, Ts, Tn, out):
     """``out[0]`` the largest x1 with a slip rate > 0 (−1: none), ``out[1]`` minus
     the smallest (−inf: none), ``out[2]`` the largest slip rate (0 for no points;
-    NaN if one is NaN), ``out[3]`` 1.0 if a traction or slip rate is not finite."""
+    NaN if one is NaN), ``out[3]`` 1.0 if a traction or slip rate is not finite,
+    ``out[4]`` x1 of the first point with the largest slip rate (as ``np.argmax``;
+    −inf for no points)."""
     xmax, mxmin, vmax, bad = -1.0, -np.inf, 0.0, 0.0
+    xv = x1[0] if x1.shape[0] > 0 else -np.inf
     for i in range(x1.shape[0]):
         v = slip_rate[i]
         if not (np.isfinite(v) and np.isfinite(Ts[i]) and np.isfinite(Tn[i])):
@@ -34,9 +37,10 @@ def look(x1, slip_rate, Ts, Tn, out):
             vmax = v
         elif v > vmax:
             vmax = v
+            xv = x1[i]
     if vmax != vmax:  # a NaN slip rate: no tip this step (the watchdog stops the run)
         xmax, mxmin = -1.0, -np.inf
-    out[0], out[1], out[2], out[3] = xmax, mxmin, vmax, bad
+    out[0], out[1], out[2], out[3], out[4] = xmax, mxmin, vmax, bad, xv
 
 
 @numba.njit(cache=True)

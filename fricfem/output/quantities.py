@@ -68,7 +68,10 @@ class Quantity(NamedTuple):
 
 
 def _mu_app(p):
-    return np.divide(p.Ts, p.Tn, out=np.zeros_like(p.Ts), where=p.Tn > 0)
+    # T_s/T_n where T_n > 0, else 0 (the same values as np.divide(..., where=T_n > 0),
+    # whose masked loop took ~17 µs for the reference mesh's 912 points against ~3)
+    pos = p.Tn > 0
+    return np.where(pos, p.Ts / np.where(pos, p.Tn, 1.0), 0.0)
 
 
 #: interface.h5 snapshot quantities, in file order.
