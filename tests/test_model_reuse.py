@@ -96,3 +96,29 @@ def test_model_key_separates_what_defines_a_model():
     # a key the reuse does not know is model-defining (safe): the raw tables are part of the key
     raw = dict(base.raw, experiment={"thickness": 0.01})
     assert model_key(base._replace(raw=raw)) != model_key(base)
+
+
+def test_a_dropped_model_is_collected_after_a_batch_froze_it(monkeypatch):
+    """A batch freezes what survives each job (gc.freeze, fricfem.batch._free); a
+    model the cache drops later must still go with the next collection."""
+    import gc
+    import weakref
+
+    from fricfem.model import reuse
+
+    class Model:  # held in a reference cycle, as the PETSc-holding objects of a model are
+        def __init__(self):
+            self.me = self
+
+    monkeypatch.setattr(reuse, "build_model", lambda scene, comm, like=None: Model())
+    monkeypatch.setattr(reuse, "model_key", lambda scene: scene)
+    cache = reuse.ModelCache(size=1)
+    first = weakref.ref(cache.build("a", None))
+    gc.collect()
+    gc.freeze()  # as after a job
+    try:
+        cache.build("b", None)  # drops the model of "a"
+        gc.collect()
+        assert first() is None
+    finally:
+        gc.unfreeze()

@@ -25,6 +25,7 @@ gives the same bits as a fresh one (``tests/test_model_reuse.py``).
 from __future__ import annotations
 
 import collections
+import gc
 import json
 
 from .build import build_model, impact_tags
@@ -107,6 +108,9 @@ class ModelCache:
             self._models[key] = base
             while len(self._models) > self.size:
                 self._models.popitem(last=False)
+                # a batch freezes what survives each job (fricfem.batch._free): let the
+                # next collection look at everything again, so the dropped model goes
+                gc.unfreeze()
             return base
         self.hits += 1
         self._models.move_to_end(key)
@@ -114,6 +118,8 @@ class ModelCache:
 
     def clear(self) -> None:
         """Forget every model (their PETSc objects go with the next garbage collection)."""
+        if self._models:
+            gc.unfreeze()  # as for a dropped model (build)
         self._models.clear()
         self.comm = None
 
