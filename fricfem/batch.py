@@ -15,11 +15,12 @@ A later batch reuses a job whose ``job.json`` holds the same identity
 
 Under MPI the communicator is split into groups of ``ranks_per_job`` ranks;
 the jobs are sorted by expected cost, heaviest first, and each group takes the
-next job of that order whenever it is free (:class:`Counter`: an atomic
+next job of that order whenever it is free (:class:`SharedCounter`: an atomic
 fetch-and-add on rank 0, so a group that drew cheap points takes more of
 them), running its jobs one after another on its own communicator.  Which
-group runs a job does not change its results.  ``ranks_per_job = 1``: one serial run per rank (a sweep scales
-by points); ``= comm.size``: every job on all ranks (the paper demos).  A
+group runs a job does not change its results.  ``ranks_per_job = 1``: one
+serial run per rank (a sweep scales by points); ``= comm.size``: every job
+on all ranks (the paper demos).  A
 group keeps the models it built (:class:`fricfem.model.reuse.ModelCache`): a
 job on the same mesh and interface as an earlier one of its group reuses the
 mesh, K, the mass, the interface geometry, λmax and the step's rows, with the
@@ -41,6 +42,7 @@ import time
 from pathlib import Path
 from typing import Callable, NamedTuple
 
+import numpy as np
 from mpi4py import MPI
 
 JOB_FILE = "job.json"
@@ -125,7 +127,7 @@ def order(jobs) -> list:
     return sorted(jobs, key=lambda j: (-j.cost, j.key))
 
 
-class Counter:
+class SharedCounter:
     """The place of the next job to take, shared by the groups of ranks of ``comm``.
 
     One integer in an MPI window on rank 0 of ``comm``; the first rank of a
@@ -135,8 +137,6 @@ class Counter:
     """
 
     def __init__(self, comm, sub):
-        import numpy as np
-
         self.comm, self.sub = comm, sub
         self.win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)
         if comm.rank == 0:
@@ -147,8 +147,6 @@ class Counter:
 
     def take(self) -> int:
         """The next place (0, 1, 2, …: each place once over all groups; collective on ``sub``)."""
-        import numpy as np
-
         got = None
         if self.sub.rank == 0:
             one, old = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
@@ -231,7 +229,7 @@ def _run_group(jobs, comm, work, log, finished, total: int) -> list:
     return done
 
 
-def _taken(counter: Counter, todo: list):
+def _taken(counter: SharedCounter, todo: list):
     """(place, job) for the places ``counter`` gives this group, until the batch is done."""
     while True:
         k = counter.take()
@@ -271,7 +269,7 @@ class Pool:
         if self.groups == 1:
             done = _run_group(enumerate(todo), self.sub, work, log, finished, len(todo))
         else:
-            counter = Counter(self.comm, self.sub)
+            counter = SharedCounter(self.comm, self.sub)
             try:
                 done = _run_group(_taken(counter, todo), self.sub, work, log, finished, len(todo))
             finally:
