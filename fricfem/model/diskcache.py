@@ -161,20 +161,30 @@ def _rows_digest(ptr, cols, vals) -> np.ndarray:
     return np.frombuffer(bytes.fromhex(_digest(ptr, cols, vals)), dtype=np.uint8)
 
 
-def load_rows(key: str, n_owned: int):
-    """The cached rows ``(ptr, cols, vals)`` of ``key``, or None (missing or bad)."""
+def _read(name: str, parse):
+    """``parse(path)`` of the entry ``name``, or None: no usable cache, or the entry
+    missing, truncated or corrupted (any error is a miss; the twin of :func:`_write`)."""
     root = cache_dir()
     if root is None:
         return None
     try:
-        with np.load(root / f"rows-{key}.npz", allow_pickle=False) as z:
+        return parse(root / name)
+    except Exception:  # missing, truncated, corrupted: a miss
+        return None
+
+
+def load_rows(key: str, n_owned: int):
+    """The cached rows ``(ptr, cols, vals)`` of ``key``, or None (missing or bad)."""
+
+    def parse(path):
+        with np.load(path, allow_pickle=False) as z:
             ptr, cols, vals, check = z["ptr"], z["cols"], z["vals"], z["digest"]
         ok = (ptr.dtype == np.int64 and cols.dtype == np.int64 and vals.dtype == np.float64
               and ptr.shape == (n_owned + 1,) and vals.shape == (len(cols), 4) and int(ptr[-1]) == len(cols)
               and np.array_equal(check, _rows_digest(ptr, cols, vals)))
         return (ptr, cols, vals) if ok else None
-    except Exception:  # missing, truncated, corrupted: a miss
-        return None
+
+    return _read(f"rows-{key}.npz", parse)
 
 
 def save_rows(key: str, rows: tuple) -> None:
@@ -209,17 +219,15 @@ def cached_rows(spec, material, num, comm, compute) -> tuple:
 
 def load_lam(key: str):
     """The cached λmax of ``key`` (a float), or None."""
-    root = cache_dir()
-    if root is None:
-        return None
-    try:
-        entry = json.loads((root / f"lam-{key}.json").read_text())
+
+    def parse(path):
+        entry = json.loads(path.read_text())
         if entry.get("format") != FORMAT or entry.get("key") != key:
             return None
         lam = float.fromhex(entry["lam"])
         return lam if np.isfinite(lam) and lam > 0 else None
-    except Exception:  # missing, truncated, corrupted: a miss
-        return None
+
+    return _read(f"lam-{key}.json", parse)
 
 
 def save_lam(key: str, lam: float) -> None:
