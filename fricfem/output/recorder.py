@@ -357,8 +357,7 @@ def compact(path: Path, rows: dict) -> None:
         try:
             shutil.copyfile(path, tmp)  # in the kernel (copy_file_range), not through HDF5
             with h5py.File(tmp, "r+") as dst:
-                for group, n in rows.items():
-                    dst.require_group(group or "/").attrs["n_time" if not group else "n"] = int(n)
+                _count_attrs(dst, rows)
             os.replace(tmp, path)
         except BaseException:
             tmp.unlink(missing_ok=True)
@@ -371,8 +370,7 @@ def compact(path: Path, rows: dict) -> None:
             if isinstance(obj, h5py.Group):
                 dst.require_group(name).attrs.update(dict(obj.attrs))
                 return
-            group = name.rpartition("/")[0]
-            group = "" if group.startswith("state") else group
+            group = _row_group(name)
             n = obj.shape[0] if name == "x1" else min(obj.shape[0], rows.get(group, obj.shape[0]))
             d = dst.create_dataset(name, shape=(n,) + obj.shape[1:], dtype=obj.dtype)
             d.attrs.update(dict(obj.attrs))
@@ -381,9 +379,20 @@ def compact(path: Path, rows: dict) -> None:
                 d[i:min(n, i + step)] = obj[i:min(n, i + step)]
 
         src.visititems(copy)
-        for group, n in rows.items():
-            dst.require_group(group or "/").attrs["n_time" if not group else "n"] = int(n)
+        _count_attrs(dst, rows)
     os.replace(tmp, path)
+
+
+def _row_group(name: str) -> str:
+    """The group whose row count a dataset follows ("" the root; ``state/*`` rows are the root's)."""
+    group = name.rpartition("/")[0]
+    return "" if group.startswith("state") else group
+
+
+def _count_attrs(f, rows: dict) -> None:
+    """The row counts as attributes: ``n_time`` on the root, ``n`` on each other group."""
+    for group, n in rows.items():
+        f.require_group(group or "/").attrs["n_time" if not group else "n"] = int(n)
 
 
 def _full(path: Path, rows: dict) -> bool:
@@ -395,9 +404,7 @@ def _full(path: Path, rows: dict) -> bool:
     def check(name, obj):
         nonlocal full
         if isinstance(obj, h5py.Dataset) and name != "x1" and obj.shape:
-            group = name.rpartition("/")[0]
-            group = "" if group.startswith("state") else group
-            full = full and obj.shape[0] == rows.get(group, obj.shape[0])
+            full = full and obj.shape[0] == rows.get(_row_group(name), obj.shape[0])
 
     with h5py.File(path, "r") as f:
         f.visititems(check)
