@@ -150,8 +150,9 @@ class Spikes:
     never a stop (docs/model.md, "The watchdog").
 
     :meth:`observe` takes the step's largest slip rate over all ranks (from the
-    monitor's reduction); it reduces once more, to find the place, only in a
-    step that sets a new peak (all ranks know it: collective).
+    monitor's reduction) and this rank's own with its place; it reduces once
+    more, to find the place, only in a step that sets a new peak (all ranks know
+    it: collective).
     """
 
     def __init__(self, threshold: float, comm):
@@ -161,19 +162,15 @@ class Spikes:
         self.first = None  # (time, x1) of the first slip rate above the threshold
         self.steps_above = 0
 
-    def observe(self, vmax: float, t: float, rates, x1, local=None) -> None:
-        """After a step: ``vmax`` the largest slip rate on every rank, ``rates`` and
-        ``x1`` this rank's points at time ``t``; ``local``: (this rank's largest slip
-        rate, x1 of its first point with it) when already known (the monitor's
-        pass, :func:`fricfem.kernels.watch.look`)."""
+    def observe(self, vmax: float, t: float, local) -> None:
+        """After a step: ``vmax`` the largest slip rate on every rank at time ``t``;
+        ``local``: this rank's largest slip rate and the x1 of its first point with
+        it (the monitor's pass, :func:`fricfem.kernels.watch.look`: −inf for no points)."""
         if vmax > self.threshold:
             self.steps_above += 1
         if not vmax > self.peak:  # also a NaN (the watchdog stops on it)
             return
-        if local is None:
-            here = float(x1[np.argmax(rates)]) if rates.size and rates.max() == vmax else -np.inf
-        else:
-            here = float(local[1]) if local[0] == vmax else -np.inf
+        here = float(local[1]) if local[0] == vmax else -np.inf
         if self.comm.size > 1:
             buf = np.array([here])
             self.comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MAX)
@@ -274,7 +271,7 @@ class Monitor:
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
         glob = self.glob
         self.comm.Allreduce(local, glob, op=MPI.MAX)
-        self.spikes.observe(glob[5], st.t_interface, p.slip_rate, x1, (seen[2], seen[4]))
+        self.spikes.observe(glob[5], st.t_interface, (seen[2], seen[4]))
         if glob[0] >= 0:
             self.tip_t.append(st.t_interface)
             self.tip_x.append(glob[0])
