@@ -77,10 +77,10 @@ def closure_bound(limits: dict) -> float:
     return min(limits["energy_tol"], limits["energy_factor"] - 1.0)
 
 
-def watchdog_code(points, energy, limits: dict, finite: bool | None = None) -> int:
+def watchdog_code(finite: bool, energy, limits: dict) -> int:
     """0 if the step looks sane, else a code of :data:`_WATCH` (local, no communication).
-    ``finite``: whether the points' tractions and slip rates are all finite, when
-    already known (the monitor's one pass, :func:`fricfem.kernels.watch.look`).
+    ``finite``: whether this rank's interface tractions and slip rates are all
+    finite (the monitor's one pass, :func:`fricfem.kernels.watch.look`).
 
     Every step: finite interface tractions and slip rates.  At energy steps
     (``output.energy_every``), with ε = :func:`closure_bound` and E the
@@ -103,8 +103,6 @@ def watchdog_code(points, energy, limits: dict, finite: bool | None = None) -> i
     """
     if not limits["enabled"]:
         return 0
-    if finite is None:
-        finite = _finite(points.Ts) and _finite(points.Tn) and _finite(points.slip_rate)
     if not finite:
         return 1
     if energy is not None:
@@ -118,12 +116,6 @@ def watchdog_code(points, energy, limits: dict, finite: bool | None = None) -> i
         if abs(energy["balance_error"]) > eps * scale:
             return 4
     return 0
-
-
-def _finite(a: np.ndarray) -> bool:
-    """Every value of ``a`` finite: its sum is (a NaN or an infinity makes the sum
-    non-finite), checked value by value only then (a sum can overflow)."""
-    return bool(np.isfinite(a.sum())) or bool(np.isfinite(a).all())
 
 
 def _watchdog_message(code: int, t: float, model, limits) -> str:
@@ -264,8 +256,7 @@ class Monitor:
         cost["stations"] += t1 - t0
         seen, local = self.seen, self.local
         look(x1, p.slip_rate, p.Ts, p.Tn, seen)  # tip, first sliding, largest slip rate, finite?
-        code = watchdog_code(p, e if e is not None else self.end.get("energy"), scene.watchdog,
-                             finite=not seen[3])
+        code = watchdog_code(not seen[3], e if e is not None else self.end.get("energy"), scene.watchdog)
         local[0], local[1], local[4], local[5] = seen[0], seen[1], code, seen[2]
         local[2] = 1.0 if self.stop_requested else 0.0
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
