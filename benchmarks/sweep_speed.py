@@ -135,24 +135,11 @@ def rank_busy(out: Path) -> dict:
 
 def diagnose_time(out: Path, doc: dict) -> dict:
     """The run's diagnostics (fronts and the mode, as each point's run does at its
-    end) timed again here over every point of the map, serially; the labels must be
-    the points' own."""
-    import numpy as np
+    end) timed again here over every point of the map, serially
+    (``diagnose_speed.py``); the labels must be the points' own."""
+    from diagnose_speed import load_points, time_points  # beside this script
 
-    import fricfem
-    from fricfem import analysis
-
-    took, same = [], True
-    for p in doc["points"]:
-        d = out / p["dir"]
-        s = json.loads((d / "summary.json").read_text())
-        r = fricfem.open_run(d)
-        t, x1, rate = np.asarray(r.t), np.asarray(r.x1), np.asarray(r.slip_rate)
-        t0 = time.perf_counter()
-        analysis.fronts(t, x1, rate, s["speeds"])
-        label, _ = analysis.classify(t, x1, rate, s["speeds"])
-        took.append(time.perf_counter() - t0)
-        same &= label == (s.get("mode") or {}).get("label")
+    took, same = time_points(load_points([out / p["dir"] for p in doc["points"]]))
     return {"points": len(took), "median_ms": 1e3 * statistics.median(took), "total_s": sum(took),
             "same_labels": same}
 
