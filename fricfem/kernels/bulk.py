@@ -107,7 +107,7 @@ def _damped(i, d, comp, f, u, unew, v, c_dt_minv, dt, absorb):
     return absorbed
 
 
-@numba.njit(cache=True)
+@numba.njit(inline="always", cache=True)
 def _special_update(I, k, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb):
     """Update the special node ``I`` (its index ``k`` in the special arrays) from
     ``s = (K u)_I``; returns (the work of the step's load on it, the energy
