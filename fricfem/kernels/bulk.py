@@ -74,7 +74,7 @@ def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
     return s0, s1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def preload(rows, special, u, ug, sp_ku):
     """``K u`` at the interface (preloaded) special nodes into ``sp_ku``
     (float64[2 n_special], by special index), while the interface computes its
@@ -203,7 +203,7 @@ def _row_u(ptr, col, val, x, I):
     return s0, s1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
     """The plain update of the rows ``lo`` <= I < ``hi`` (uint64; none of them
     special), adding each row's u·(K u) to ``uku`` in row order; returns it.
@@ -230,7 +230,7 @@ def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
     return uku
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act):
     """One pass over the owned block rows, the deferred special rows excepted.
 
@@ -275,7 +275,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
     return uku, work, absorbed
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
                    sp_ku):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the

@@ -15,7 +15,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def look(x1, slip_rate, Ts, Tn, out):
     """``out[0]`` the largest x1 with a slip rate > 0 (−1: none), ``out[1]`` minus
     the smallest (−inf: none), ``out[2]`` the largest slip rate (0 for no points;
@@ -43,7 +43,7 @@ def look(x1, slip_rate, Ts, Tn, out):
     out[0], out[1], out[2], out[3], out[4] = xmax, mxmin, vmax, bad, xv
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def take_rows(columns, index, rows, k, j0):
     """``rows[k, j0 + j, s] = columns[j][index[s]]``: the stations' values now (one row a step)."""
     for j in range(len(columns)):
