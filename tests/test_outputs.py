@@ -235,3 +235,42 @@ def test_mu_app_is_the_masked_division():
         Tn[::7], Tn[::11], Ts[::13] = 0.0, np.nan, np.nan
         got = BY_NAME["mu_app"].read(SimpleNamespace(Ts=Ts, Tn=Tn))
         assert got.tobytes() == np.divide(Ts, Tn, out=np.zeros_like(Ts), where=Tn > 0).tobytes()
+
+
+@pytest.mark.parametrize("moduli", ["uniform", "per cell"])
+def test_compiled_stress_is_dolfinx_interpolating_the_ufl_stress(moduli):
+    """The field output's σ1 − σ2 per cell (kernels.stress, a numba loop) is what
+    dolfinx gives interpolating the UFL expression into DG0 (prestress and τ0
+    included; moduli uniform, or a DG0 function as the experiment's steel parts
+    have them), to round-off, on a distorted mesh with a random displacement."""
+    from types import SimpleNamespace
+
+    from dolfinx import fem, mesh
+
+    from fricfem.kernels import stress
+    from fricfem.output.fields import _cell_values, stress_difference_ufl
+
+    msh = mesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([2e-2, 1e-2])], [13, 7])
+    x = msh.geometry.x
+    x[:, 0] += 1e-3 * np.sin(300.0 * x[:, 1])  # not a structured grid: every cell its own Jacobian
+    V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+    W = fem.FunctionSpace(msh, ("DG", 0))
+    u = fem.Function(V)
+    u.x.array[:] = np.random.default_rng(1).normal(size=u.x.array.size) * 1e-6
+    if moduli == "uniform":
+        mat = SimpleNamespace(mu=2.1e9, lmbda=1.3e9)
+    else:
+        mat = SimpleNamespace(mu=fem.Function(W), lmbda=fem.Function(W))
+        mat.mu.interpolate(lambda p: np.where(p[0] < 1e-2, 80e9, 2.1e9))
+        mat.lmbda.interpolate(lambda p: np.where(p[1] < 5e-3, 1.3e9, 110e9))
+    sigma0, tau0 = 7e6, 1.5e6
+    ref = fem.Function(W)
+    ref.interpolate(fem.Expression(stress_difference_ufl(u, mat, sigma0, tau0), W.element.interpolation_points()))
+    n = msh.topology.index_map(2).size_local
+    out = np.empty(n)
+    stress.stress_difference(stress.shape_gradients(x, msh.geometry.dofmap.array.reshape(-1, 3)[:n]),
+                             np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 3)[:n]), u.x.array,
+                             _cell_values(mat.mu, n), _cell_values(mat.lmbda, n), sigma0, tau0, out)
+    expected = ref.x.array[W.dofmap.list.array[:n]]
+    assert np.ptp(expected) > 0.1 * np.max(expected)  # the cells differ: a real comparison
+    np.testing.assert_allclose(out, expected, rtol=1e-12, atol=0.0)

@@ -1,7 +1,7 @@
 """Field output: displacement, velocity and σ1 − σ2 (prestress included) to XDMF/HDF5.
 
-Stresses are evaluated only when a field snapshot is written: a run that asks
-for no fields never compiles or evaluates the stress expression.
+Stresses are evaluated only when a field snapshot is written (one compiled
+loop over the cells, :mod:`fricfem.kernels.stress`).
 
 Layout (crash-safe, and one time series that every XDMF reader takes whole):
 
@@ -13,8 +13,9 @@ Layout (crash-safe, and one time series that every XDMF reader takes whole):
   and written there in one go (an HDF5 image made in memory, one plain
   write) under a temporary name, renamed when complete; dolfinx's own
   collective writer reopened the file for each function, through MPI-IO (a
-  snapshot of the reference mesh on 2 ranks: 14.4 ms then, 9.0 ms now, 2–3.5
-  ms of it the stress's interpolation);
+  snapshot of the reference mesh on 2 ranks: 14.4 ms then, 9.0 ms with this
+  layout, 2–3.5 ms of it interpolating the stress's UFL expression, which a
+  numba loop over the cells now does in ~0.3 ms: :mod:`fricfem.kernels.stress`);
 - ``fields.xdmf`` — one temporal collection: a grid per snapshot with the mesh
   and the three functions (displacement and velocity at the nodes, σ1 − σ2
   per cell), rewritten (temporary file, then renamed) after each snapshot.
@@ -35,6 +36,7 @@ import ufl
 from dolfinx import fem
 from dolfinx.io import XDMFFile
 
+from ..kernels import stress
 from .quantities import FIELDS
 
 #: the folder beside ``fields.xdmf`` that holds its HDF5 files
@@ -53,6 +55,19 @@ def stress_with_prestress(u, material, sigma0: float, tau0: float = 0.0):
     eps = ufl.sym(ufl.grad(u))
     sig = 2.0 * material.mu * eps + material.lmbda * ufl.tr(eps) * ufl.Identity(2)
     return sig + ufl.as_matrix([[0.0, tau0], [tau0, -sigma0]])
+
+
+def stress_difference_ufl(u, material, sigma0: float, tau0: float = 0.0):
+    """σ1 − σ2 of the total stress as a UFL expression (the reference the
+    compiled :func:`fricfem.kernels.stress.stress_difference` is tested against)."""
+    return principal_difference(stress_with_prestress(u, material, sigma0, tau0))
+
+
+def _cell_values(modulus, n_cells: int) -> np.ndarray:
+    """A modulus per owned cell: float64[n_cells] for a DG0 function, float64[1] for a number."""
+    if isinstance(modulus, fem.Function):
+        return np.ascontiguousarray(modulus.x.array[modulus.function_space.dofmap.list.array[:n_cells]])
+    return np.array([float(modulus)])
 
 
 def _space(folder: Path) -> str:
@@ -91,7 +106,9 @@ def _mesh_xml(xdmf: Path, h5_ref: str) -> ET.Element:
 
 class FieldWriter:
     """Write u, v and σ1 − σ2 (cell-wise, DG0) at chosen times to ``path`` (.xdmf)
-    and the HDF5 files in ``fields/`` beside it (collective)."""
+    and the HDF5 files in ``fields/`` beside it (collective).  ``material``: a
+    :class:`fricfem.model.material.Material`, or anything with ``mu`` and
+    ``lmbda`` as numbers or DG0 functions [Pa]."""
 
     def __init__(self, path, V, material, sigma0: float, tau0: float = 0.0):
         msh = V.mesh
@@ -100,12 +117,14 @@ class FieldWriter:
         self.dir = self.path.parent / FIELDS_DIR
         self.u = fem.Function(V, name="displacement")
         self.v = fem.Function(V, name="velocity")
-        W = fem.FunctionSpace(msh, ("DG", 0))
-        self.s = fem.Function(W, name="stress_difference")
-        expr = principal_difference(stress_with_prestress(self.u, material, sigma0, tau0))
-        self.expr = fem.Expression(expr, W.element.interpolation_points())
         self.n_owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
-        self._layout(msh, V, W)
+        self._layout(msh, V)
+        # σ1 − σ2 per owned cell (kernels.stress): shape gradients, node dofs, moduli, prestress
+        n = self.n_cells
+        self.stress_args = (stress.shape_gradients(msh.geometry.x, msh.geometry.dofmap.array.reshape(-1, 3)[:n]),
+                            np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 3)[:n]),
+                            _cell_values(material.mu, n), _cell_values(material.lmbda, n),
+                            float(sigma0), float(tau0))
         self.grids: list = []  # rank 0: the XML text of the grid of each written snapshot
         if self.comm.rank == 0:
             self.dir.mkdir(exist_ok=True)
@@ -124,11 +143,11 @@ class FieldWriter:
             os.replace(self.dir / ".mesh.h5", self.dir / MESH_FILE)
             mesh_xdmf.unlink()
 
-    def _layout(self, msh, V, W) -> None:
+    def _layout(self, msh, V) -> None:
         """Where each written value comes from, in the order dolfinx writes a
         function of a first-order mesh: this rank's owned geometry nodes (their
-        value is the dof the cells map them to) and its owned cells (their DG0
-        dof); rank 0 also learns every rank's counts (collective)."""
+        value is the dof the cells map them to) and its owned cells (in their
+        order); rank 0 also learns every rank's counts (collective)."""
         nodes = msh.geometry.dofmap.array
         dofs = V.dofmap.list.array
         if len(nodes) != len(dofs):
@@ -136,9 +155,8 @@ class FieldWriter:
         node_dof = np.empty(msh.geometry.x.shape[0], dtype=np.int64)
         node_dof[nodes] = dofs
         self.node_dof = node_dof[: msh.geometry.index_map().size_local]
-        n_cells = msh.topology.index_map(msh.topology.dim).size_local
-        self.cell_dof = W.dofmap.list.array[:n_cells].astype(np.int64)
-        self.counts = self.comm.gather((len(self.node_dof), n_cells), root=0)
+        self.n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        self.counts = self.comm.gather((len(self.node_dof), self.n_cells), root=0)
 
     def _gathered(self, values, what: int):
         """``values`` of every rank, concatenated in rank order on rank 0 (None
@@ -168,10 +186,9 @@ class FieldWriter:
         snapshot file, then ``fields.xdmf`` listing it."""
         self._fill(self.u, state.u)
         self._fill(self.v, state.v)
-        self.s.interpolate(self.expr)
         values = {"displacement": self._gathered(self._nodal(self.u), 0),
                   "velocity": self._gathered(self._nodal(self.v), 0),
-                  "stress_difference": self._gathered(self.s.x.array[self.cell_dof][:, None], 1)}
+                  "stress_difference": self._gathered(self.stress()[:, None], 1)}
         error = None
         if self.comm.rank == 0:
             try:
@@ -181,6 +198,13 @@ class FieldWriter:
         error = self.comm.bcast(error, root=0)
         if error is not None:
             raise error
+
+    def stress(self) -> np.ndarray:
+        """σ1 − σ2 [Pa] of this rank's owned cells from the displacement last filled in."""
+        grad, dofs, mu, lmbda, sigma0, tau0 = self.stress_args
+        out = np.empty(self.n_cells)
+        stress.stress_difference(grad, dofs, self.u.x.array, mu, lmbda, sigma0, tau0, out)
+        return out
 
     def _write_snapshot(self, values: dict, t: float) -> None:
         """Rank 0: the snapshot's file (temporary name, renamed when complete),

@@ -95,16 +95,16 @@ class Recorder:
             self.stations[name] = (xq, int(local[0]) if len(local) else -1)
         self.station_n = {name: 0 for name in self.stations}
         self._init_station_rows()
-        self.snap_t: list = []  # rank 0: the rows gathered so far (times, and per quantity)
+        self.snap_t: list = []  # rank 0: the times of the rows gathered so far
         self.n_local = len(geom.x1)
         self.n_local_all = self.comm.allgather(self.n_local)
-        self.reorder = not np.array_equal(self.order, np.arange(self.n_point))
         # this rank's rows since the last flush: block[row, quantity, local point], and their times
         self.block = np.empty((16, len(QUANTITIES) + len(self.law.state), self.n_local))
         self.n_block = 0
         self.local_t: list = []
-        self.snap_rows: dict = {q.name: [] for q in QUANTITIES}
-        self.snap_rows.update({f"state/{s}": [] for s in self.law.state})
+        self.names = [q.name for q in QUANTITIES] + [f"state/{s}" for s in self.law.state]
+        # rank 0: the rows of each flush, [quantity, row, point] in x1 order, and the first row's index
+        self.blocks: list = []
         self.energy_rows: list = []
         self.written = {"snapshots": 0, "energy": 0}  # rows in the file
         self.h5 = None
@@ -113,7 +113,7 @@ class Recorder:
             try:
                 self.h5 = self._create(scene, speeds)
             except OSError as err:
-                need = _nbytes(self.rows, self.n_point, len(self.snap_rows), len(self.stations), len(ENERGY))
+                need = _nbytes(self.rows, self.n_point, len(self.names), len(self.stations), len(ENERGY))
                 error = f"{err.filename}: cannot write the run's interface file ({need / 1e6:.3g} MB): {err.strerror}"
         error = self.comm.bcast(error, root=0)
         if error is not None:
@@ -141,7 +141,7 @@ class Recorder:
             f["x1"].attrs["unit"] = "m"
             n = self.rows["snapshots"]
             _dataset(f, "time", (n,), "f8", "s")
-            for q in self.snap_rows:
+            for q in self.names:
                 _dataset(f, q, (n, self.n_point), "i1" if q == "open" else "f8", unit(q))
             for name, (xq, _) in self.stations.items():
                 g = f.create_group(f"stations/{name}")
@@ -152,7 +152,7 @@ class Recorder:
             g.attrs["unit"] = "J/m (per unit thickness); time in s"
             for k in ENERGY:
                 _dataset(g, k, (self.rows["energy"],), "f8", ENERGY[k])
-            names = ["time", *self.snap_rows, *(f"energy/{k}" for k in ENERGY),
+            names = ["time", *self.names, *(f"energy/{k}" for k in ENERGY),
                      *(f"stations/{s}/{c}" for s in self.stations for c in ["time", *(q.name for q in QUANTITIES)])]
             layout = {name: _place(f[name]) for name in names}
             f.close()  # the layout is final: no byte of HDF5 metadata is written after this
@@ -183,8 +183,10 @@ class Recorder:
 
     def _gather_rows(self) -> None:
         """The rows buffered since the last flush, from every rank, into rank 0's
-        history (one Gatherv of the packed block; collective)."""
-        n_new, nq = self.n_block, len(self.snap_rows)  # n_new: the same on every rank
+        history (one Gatherv of the packed block; collective): one array
+        [quantity, row, point] in x1 order, so that each quantity's new rows are
+        one contiguous piece for the file."""
+        n_new, nq = self.n_block, len(self.names)  # n_new: the same on every rank
         block = self.block[:n_new]
         times, self.local_t, self.n_block = self.local_t, [], 0
         if self.comm.size > 1:
@@ -193,15 +195,13 @@ class Recorder:
             self.comm.Gatherv(block.reshape(-1), (recv, counts) if recv is not None else None, root=0)
             if self.comm.rank != 0 or n_new == 0:
                 return
-            parts = np.split(recv, np.cumsum(counts)[:-1])
-            full = np.concatenate([a.reshape(n_new, nq, m) for a, m in zip(parts, self.n_local_all)], axis=2)
-            full = full[:, :, self.order]
+            parts = [a.reshape(n_new, nq, m) for a, m in zip(np.split(recv, np.cumsum(counts)[:-1]), self.n_local_all)]
         elif n_new == 0:
             return
-        else:  # one rank: the buffer is reused, so the history keeps a copy
-            full = block[:, :, self.order] if self.reorder else block.copy()
-        for k, q in enumerate(self.snap_rows):
-            self.snap_rows[q].extend(full[:, k])
+        else:  # one rank: the buffer is reused, so the history keeps a copy (take makes one)
+            parts = [block]
+        full = np.take(np.concatenate([a.transpose(1, 0, 2) for a in parts], axis=2), self.order, axis=2)
+        self.blocks.append((len(self.snap_t), full))
         self.snap_t.extend(times)
 
     def _init_station_rows(self) -> None:
@@ -274,8 +274,10 @@ class Recorder:
         times = []  # (dataset, start, values): written after every value is in the file
         n0, n1 = self.written["snapshots"], len(self.snap_t)
         if n1 > n0:
-            for q, rows in self.snap_rows.items():
-                f.write(q, n0, np.array(rows[n0:n1]))
+            for start, full in self.blocks:
+                if start >= n0:  # not in the file yet (an earlier flush's write may have failed)
+                    for q, rows in zip(self.names, full):
+                        f.write(q, start, rows)
             times.append(("time", n0, np.array(self.snap_t[n0:n1])))
         for name, (t, values) in stations.items():
             m0 = self.station_n[name]
@@ -298,7 +300,9 @@ class Recorder:
         """(time, slip_rate[n_t, n_p]) recorded so far (rank 0; None elsewhere)."""
         if self.comm.rank != 0:
             return None
-        return np.array(self.snap_t), np.array(self.snap_rows["slip_rate"])
+        k = self.names.index("slip_rate")
+        return np.array(self.snap_t), (np.concatenate([full[k] for _, full in self.blocks]) if self.blocks
+                                       else np.array([]))
 
     def close(self) -> None:
         """Close the file and replace it by a copy of its valid rows with their counts (rank 0)."""
