@@ -185,15 +185,15 @@ def split_probe(p: dict) -> dict:
     """The probe's phases without JIT: setup, JIT (ffcx, numba), loop, output."""
     jit_setup = p["ffcx_jit_setup_s"] + p["numba_jit_setup_s"]
     jit_loop = p["ffcx_jit_loop_s"] + p["numba_jit_loop_s"]
-    jit_output = p.get("ffcx_jit_output_s", 0.0) + p.get("numba_jit_output_s", 0.0)  # (results before 11-24: 0)
+    jit_output = p["ffcx_jit_output_s"] + p["numba_jit_output_s"]
     return {
         "split": {
             "import (excl. numba)": p["import_s"] - p["numba_jit_in_import_s"],
             "setup: mesh (excl. JIT)": p["mesh_s"] - p["jit_in_mesh_s"],
             "setup: assembly, dt, rest (excl. JIT)": p["setup_s"] - (p["mesh_s"] - p["jit_in_mesh_s"]) - jit_setup,
-            "JIT: ffcx forms": p["ffcx_jit_setup_s"] + p["ffcx_jit_loop_s"] + p.get("ffcx_jit_output_s", 0.0),
+            "JIT: ffcx forms": p["ffcx_jit_setup_s"] + p["ffcx_jit_loop_s"] + p["ffcx_jit_output_s"],
             "JIT: numba (compile or cache load)": p["numba_jit_in_import_s"] + p["numba_jit_setup_s"]
-            + p["numba_jit_loop_s"] + p.get("numba_jit_output_s", 0.0),
+            + p["numba_jit_loop_s"] + p["numba_jit_output_s"],
             "time loop (excl. JIT)": p["time_loop_s"] - jit_loop,
             "output (excl. JIT)": p["output_s"] - jit_output,
         }

@@ -14,27 +14,13 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
-
-
-def shape_gradients(x: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """∂N_a/∂x_j [1/m] of the linear shape functions of each triangle:
-    float64[n_cells, 3, 2], from the node coordinates ``x`` [n, ≥2] and each
-    cell's three nodes ``nodes`` [n_cells, 3]."""
-    p = x[nodes][:, :, :2]
-    jac = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=2)  # J[c, i, k] = ∂x_i/∂ξ_k
-    inv = np.linalg.inv(jac)  # ∇N_k = row k of J⁻¹ (k = 1, 2)
-    grad = np.empty((len(nodes), 3, 2))
-    grad[:, 1:] = inv
-    grad[:, 0] = -inv[:, 0] - inv[:, 1]
-    return grad
 
 
 @numba.njit(cache=True, _nrt=False)
 def stress_difference(grad, dofs, u, mu, lmbda, sigma0, tau0, out):
     """``out[c]`` = σ1 − σ2 [Pa] of cell c (prestress included).
 
-    grad   float64[n_c, 3, 2]  :func:`shape_gradients`
+    grad   float64[n_c, 3, 2]  ∂N_a/∂x_j (:func:`fricfem.output.gauges.shape_gradients`)
     dofs   int32[n_c, 3]       each cell's node (block) dofs: u[2 dof + component] [m]
     mu, lmbda float64[n_c] or float64[1] (uniform) [Pa]
     """

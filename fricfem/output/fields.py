@@ -37,6 +37,7 @@ from dolfinx import fem
 from dolfinx.io import XDMFFile
 
 from ..kernels import stress
+from .gauges import shape_gradients
 from .quantities import FIELDS
 
 #: the folder beside ``fields.xdmf`` that holds its HDF5 files
@@ -64,10 +65,30 @@ def stress_difference_ufl(u, material, sigma0: float, tau0: float = 0.0):
 
 
 def _cell_values(modulus, n_cells: int) -> np.ndarray:
-    """A modulus per owned cell: float64[n_cells] for a DG0 function, float64[1] for a number."""
+    """A modulus per cell: float64[n_cells] for a DG0 function, float64[1] for a number."""
     if isinstance(modulus, fem.Function):
         return np.ascontiguousarray(modulus.x.array[modulus.function_space.dofmap.list.array[:n_cells]])
     return np.array([float(modulus)])
+
+
+def stress_inputs(V, material, sigma0: float, tau0: float, n_cells: int) -> tuple:
+    """What :func:`cell_stress` needs for the first ``n_cells`` cells of ``V``'s
+    first-order triangle mesh: (shape gradients, the cells' node dofs, μ, λ
+    [Pa], Σ0, τ0 [Pa]); ``material.mu``, ``.lmbda`` numbers or DG0 functions."""
+    msh = V.mesh
+    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]
+    return (shape_gradients(msh.geometry.x[nodes][:, :, :2]),
+            np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 3)[:n_cells]),
+            _cell_values(material.mu, n_cells), _cell_values(material.lmbda, n_cells), float(sigma0), float(tau0))
+
+
+def cell_stress(inputs: tuple, u: np.ndarray) -> np.ndarray:
+    """σ1 − σ2 [Pa] of each cell of ``inputs`` (:func:`stress_inputs`) from the
+    displacement dofs ``u`` (owned and ghost) [m]."""
+    grad, dofs, mu, lmbda, sigma0, tau0 = inputs
+    out = np.empty(len(dofs))
+    stress.stress_difference(grad, dofs, u, mu, lmbda, sigma0, tau0, out)
+    return out
 
 
 def _space(folder: Path) -> str:
@@ -119,12 +140,7 @@ class FieldWriter:
         self.v = fem.Function(V, name="velocity")
         self.n_owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
         self._layout(msh, V)
-        # σ1 − σ2 per owned cell (kernels.stress): shape gradients, node dofs, moduli, prestress
-        n = self.n_cells
-        self.stress_args = (stress.shape_gradients(msh.geometry.x, msh.geometry.dofmap.array.reshape(-1, 3)[:n]),
-                            np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 3)[:n]),
-                            _cell_values(material.mu, n), _cell_values(material.lmbda, n),
-                            float(sigma0), float(tau0))
+        self.stress_inputs = stress_inputs(V, material, sigma0, tau0, self.n_cells)  # σ1 − σ2 of the owned cells
         self.grids: list = []  # rank 0: the XML text of the grid of each written snapshot
         if self.comm.rank == 0:
             self.dir.mkdir(exist_ok=True)
@@ -188,7 +204,7 @@ class FieldWriter:
         self._fill(self.v, state.v)
         values = {"displacement": self._gathered(self._nodal(self.u), 0),
                   "velocity": self._gathered(self._nodal(self.v), 0),
-                  "stress_difference": self._gathered(self.stress()[:, None], 1)}
+                  "stress_difference": self._gathered(cell_stress(self.stress_inputs, self.u.x.array)[:, None], 1)}
         error = None
         if self.comm.rank == 0:
             try:
@@ -198,13 +214,6 @@ class FieldWriter:
         error = self.comm.bcast(error, root=0)
         if error is not None:
             raise error
-
-    def stress(self) -> np.ndarray:
-        """σ1 − σ2 [Pa] of this rank's owned cells from the displacement last filled in."""
-        grad, dofs, mu, lmbda, sigma0, tau0 = self.stress_args
-        out = np.empty(self.n_cells)
-        stress.stress_difference(grad, dofs, self.u.x.array, mu, lmbda, sigma0, tau0, out)
-        return out
 
     def _write_snapshot(self, values: dict, t: float) -> None:
         """Rank 0: the snapshot's file (temporary name, renamed when complete),

@@ -72,6 +72,19 @@ class Located:
     vertices: np.ndarray
 
 
+def shape_gradients(p: np.ndarray) -> np.ndarray:
+    """∂N_a/∂x_j [1/m] of the linear shape functions of each triangle:
+    float64[n, 3, 2], from its vertices ``p`` float64[n, 3, 2] [m].  With
+    J = [p1 − p0, p2 − p0] (columns), ∇N_1, ∇N_2 are the rows of J⁻¹, so
+    ``[:, 1:]`` is J⁻¹ itself (the gauges' barycentric coordinates use it)."""
+    jac = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=2)  # J[c, i, k] = ∂x_i/∂ξ_k
+    inv = np.linalg.inv(jac)  # ∇N_k = row k of J⁻¹ (k = 1, 2)
+    grad = np.empty((len(p), 3, 2))
+    grad[:, 1:] = inv
+    grad[:, 0] = -inv[:, 0] - inv[:, 1]
+    return grad
+
+
 def locate(x: np.ndarray, cells: np.ndarray, points: np.ndarray) -> Located:
     """The triangle of ``cells`` (grid nodes ``x``) holding each point [m], in the
     plate of the point's x2 sign (the interface's two node rows coincide, so a
@@ -98,12 +111,9 @@ def locate(x: np.ndarray, cells: np.ndarray, points: np.ndarray) -> Located:
         found[k] = cand[inside[0]]
     tri = cells[found]
     v = x[tri]
-    # J = [p1 − p0, p2 − p0] (columns); (λ1, λ2) = J⁻¹ (x − p0); ∇λ1, ∇λ2 are J⁻¹'s rows
-    J = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]], axis=2)
-    Jinv = np.linalg.inv(J)
-    lam = np.einsum("nij,nj->ni", Jinv, points - v[:, 0])
+    grads = shape_gradients(v)  # ∇λ0, ∇λ1, ∇λ2; the last two are J⁻¹'s rows, J = [p1 − p0, p2 − p0]
+    lam = np.einsum("nij,nj->ni", grads[:, 1:], points - v[:, 0])  # (λ1, λ2) = J⁻¹ (x − p0)
     weights = np.column_stack([1.0 - lam.sum(axis=1), lam])
-    grads = np.stack([-Jinv[:, 0] - Jinv[:, 1], Jinv[:, 0], Jinv[:, 1]], axis=1)
     return Located(tri, weights, grads, v)
 
 

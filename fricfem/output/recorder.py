@@ -103,7 +103,7 @@ class Recorder:
         self.n_block = 0
         self.local_t: list = []
         self.names = [q.name for q in QUANTITIES] + [f"state/{s}" for s in self.law.state]
-        # rank 0: the rows of each flush, [quantity, row, point] in x1 order, and the first row's index
+        # rank 0: each flush's rows as (index of its first row, rows[quantity, row, point] in x1 order)
         self.blocks: list = []
         self.energy_rows: list = []
         self.written = {"snapshots": 0, "energy": 0}  # rows in the file
@@ -274,10 +274,12 @@ class Recorder:
         times = []  # (dataset, start, values): written after every value is in the file
         n0, n1 = self.written["snapshots"], len(self.snap_t)
         if n1 > n0:
-            for start, full in self.blocks:
-                if start >= n0:  # not in the file yet (an earlier flush's write may have failed)
-                    for q, rows in zip(self.names, full):
-                        f.write(q, start, rows)
+            # the blocks not in the file yet: this flush's, and any whose write failed before
+            for start, full in reversed(self.blocks):
+                if start < n0:
+                    break
+                for q, rows in zip(self.names, full):
+                    f.write(q, start, rows)
             times.append(("time", n0, np.array(self.snap_t[n0:n1])))
         for name, (t, values) in stations.items():
             m0 = self.station_n[name]
