@@ -25,12 +25,19 @@
 # 5. **Start-up**: ``python -X importtime`` of a run: import time per package;
 #    ``import gmsh`` alone (what a run no longer imports); ``mpirun -n 2 python
 #    -c 'from mpi4py import MPI'``.
+# 6. **Floors**: what Case I's end-to-end time cannot go below whatever the
+#    loop and the outputs do — ``mpirun -n 2 python -c`` importing exactly the
+#    modules a run imports (fricfem's own excepted), the kernels' and forms'
+#    cache loads (``end_to_end.py``'s probe of a warm run), and Case I's steps
+#    × a bare MatMult on the reference mesh (no setup, no outputs, a step as
+#    cheap as one MatMult); and the step's parts against that MatMult
+#    (``step_vs_matmult.py povirk_needleman``).
 #
 #     .venv/bin/python benchmarks/sweep_speed.py --full runs/sweep32/full
 #
 # writes ``benchmarks/results/sweep_speed.{json,md}`` and the maps' figures
 # ``results/modemap_{default8,full32,adaptive32}.png``.  ``--only`` runs some
-# parts (map8, adaptive, case1, loop, startup; full: only read the full map); the
+# parts (map8, adaptive, case1, loop, startup, floors; full: only read the full map); the
 # parts not run keep their last results, each with its date and code.
 # ``--smoke``: a 2 × 2 map on the coarse mesh and the start-up part, into
 # ``results/smoke/``.
@@ -332,6 +339,80 @@ def startup(root: Path, smoke: bool) -> dict:
             "ghost_lists": ghost_lists("coarse" if smoke else "reference")}
 
 
+# ## 6. Floors: what the goals stand against
+
+
+def imported_modules(lines) -> list:
+    """The modules fricfem's sources import by name (``import x`` / ``from x import``, fricfem's
+    own excepted) that a run imported (``-X importtime`` lines), in import order: what they
+    import in turn comes with them; what numba or dolfinx import lazily while loading kernels
+    and forms does not (it is in their cache loads)."""
+    import ast
+
+    named = set()
+    for path in (ROOT / "fricfem").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                named.update(a.name for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                named.add(node.module)
+    mods = []
+    for line in lines:
+        m = re.match(r"import time:\s+\d+ \|\s+\d+ \|( *)(\S+)", line)
+        if m and m.group(2) in named and not m.group(2).startswith("fricfem"):
+            mods.append(m.group(2))
+    return mods
+
+
+def step_split(ranks: int) -> dict:
+    """``benchmarks/step_vs_matmult.py povirk_needleman``: the step and its parts against a bare MatMult [µs]."""
+    out = timed(mpirun(ranks, [sys.executable, str(HERE / "step_vs_matmult.py"), "povirk_needleman"]))
+    line = out["stdout"].strip().splitlines()[-1]
+    m = re.search(r"step (\d+) µs \((.*)\), bare MatMult (\d+) µs", line)
+    parts = {k: float(v) for k, v in (kv.rsplit(" ", 1) for kv in m.group(2).split(", "))}
+    return {"line": line, "step_us": float(m.group(1)), "matmult_us": float(m.group(3)), "parts_us": parts,
+            "load_before": out["load_before"], "load_after": out["load_after"],
+            "others_cpu_share": out["others_cpu_share"]}
+
+
+def floors(root: Path, ranks: int, smoke: bool) -> dict:
+    """The parts of Case I's end-to-end time and of the step that fricfem's loop
+    and outputs do not control, measured in one run (see the module docstring)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("end_to_end", HERE / "end_to_end.py")
+    e2e = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(e2e)
+    reps = 1 if smoke else 3
+    # the modules a run imports (a short serial run), then only those imports under mpirun
+    cmd = [sys.executable, "-X", "importtime", "-m", "fricfem.cli", "run", "case1", "--set", "mesh.preset='coarse'",
+           "--set", "time.end=2e-6", "--set", "output.fields=[1e-6]", "--out", root / "floors_imports", "--overwrite", "--quiet"]
+    proc = subprocess.run(list(map(str, cmd)), env=env(), cwd=ROOT, capture_output=True, text=True, check=True)
+    mods = imported_modules(proc.stderr.splitlines())
+    code = ("import importlib\nfor m in " + repr(mods) + ":\n    try:\n        importlib.import_module(m)\n"
+            "    except Exception:\n        pass\n")
+    mpi = [timed(mpirun(ranks, [sys.executable, "-c", "from mpi4py import MPI"]))["wall_s"] for _ in range(reps)]
+    imp = [timed(mpirun(ranks, [sys.executable, "-c", code])) for _ in range(reps)]
+    # the kernels' and forms' cache loads, and the steps: the probe of a warm run
+    sets = ["mesh.preset='coarse'", "time.end=5e-6"] if smoke else []
+    probes = []
+    for k in range(reps + 1):  # the first warms the caches
+        p = e2e.run_probe(ranks, "case1", sets, root / "floors_probe", env(), root / "floors_probe.json")
+        if k:
+            probes.append(p)
+    split = {ph: statistics.median(p["split"][ph] for p in probes) for ph in probes[0]["split"]}
+    step = step_split(ranks) if not smoke else None
+    steps = probes[0]["steps"]
+    mat_us = step["matmult_us"] if step else float("nan")
+    jit = split["JIT: numba (compile or cache load)"] + split["JIT: ffcx forms"]
+    return {"modules": mods, "mpirun_mpi4py_s": statistics.median(mpi),
+            "imports_s": statistics.median(m["wall_s"] for m in imp),
+            "imports_load": [(m["load_before"], m["others_cpu_share"]) for m in imp],
+            "probe_split_s": split, "cache_loads_s": jit, "steps": steps,
+            "steps_x_matmult_s": steps * mat_us * 1e-6, "step": step,
+            "floor_s": statistics.median(m["wall_s"] for m in imp) + jit + steps * mat_us * 1e-6}
+
+
 # ## The report
 
 
@@ -445,13 +526,39 @@ def markdown(res: dict) -> str:
                          f"reference mesh on {g['parts']} parts took {g['loop_s']:.3f} s as the per-cell loop used "
                          f"before and {g['numpy_s']:.4f} s now (same output: {g['same_output']}; load {g['load']:.1f})."
                          "\n")
+    fl = res.get("floors")
+    if fl:
+        sp = fl["probe_split_s"]
+        lines += [f"## Floors {_when(fl)}\n",
+                  "What Case I's warm end-to-end time on 2 ranks cannot go below, whatever the loop and the outputs "
+                  "do (medians of the repeats):\n",
+                  "| part | [s] |", "|---|---|",
+                  f"| `mpirun -n 2 python -c 'from mpi4py import MPI'` (launcher, interpreter, MPI) | "
+                  f"{fl['mpirun_mpi4py_s']:.2f} |",
+                  f"| the same, importing the {len(fl['modules'])} modules fricfem imports by name in a run (with what they "
+                  f"import) | "
+                  f"{fl['imports_s']:.2f} |",
+                  f"| the kernels' (numba) and forms' (ffcx) cache loads, warm | {fl['cache_loads_s']:.2f} |"]
+        if fl.get("step"):
+            st = fl["step"]
+            lines += [f"| Case I's {fl['steps']} steps × a bare MatMult ({st['matmult_us']:.0f} µs) | "
+                      f"{fl['steps_x_matmult_s']:.2f} |",
+                      f"| **floor** (imports + cache loads + steps × MatMult) | **{fl['floor_s']:.2f}** |"]
+        lines.append("\nThe probe's split of the same run (JIT separated; mean over ranks): "
+                     + ", ".join(f"{k} {v:.2f}" for k, v in sp.items()) + " s.\n")
+        if fl.get("step"):
+            st = fl["step"]
+            parts = ", ".join(f"{k} {v / st['matmult_us']:.2f}" for k, v in st["parts_us"].items())
+            lines.append(f"The step in sliding (`step_vs_matmult.py povirk_needleman`, 2 ranks): {st['step_us']:.0f} µs "
+                         f"= {st['step_us'] / st['matmult_us']:.2f} × MatMult; its parts (slowest rank) × MatMult: "
+                         f"{parts} ({_load(st)}).\n")
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--full", type=Path, help="the full 32 × 32 map's sweep directory (else results/modemap_full32.json)")
-    ap.add_argument("--only", default="map8,adaptive,case1,loop,startup",
+    ap.add_argument("--only", default="map8,adaptive,case1,loop,startup,floors",
                     help="parts to run, comma-separated (also 'full': only read the full map of --full)")
     ap.add_argument("--full-load", type=Path, help="load averages logged while the full map ran (one line a minute)")
     ap.add_argument("--ranks", type=int, default=2)
@@ -501,6 +608,9 @@ def main(argv=None) -> int:
         save()
     if "startup" in parts:
         res["startup"] = {**startup(args.work, args.smoke), **stamp}
+        save()
+    if "floors" in parts:
+        res["floors"] = {**floors(args.work, args.ranks, args.smoke), **stamp}
     (RESULTS / f"{name}.json").write_text(json.dumps(res, indent=1, default=str))
     (RESULTS / f"{name}.md").write_text(markdown(res))
     print(markdown(res))
