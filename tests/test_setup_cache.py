@@ -201,3 +201,27 @@ def test_cache_location(monkeypatch):
     for off in ("off", "", "OFF"):
         monkeypatch.setenv("FRICFEM_CACHE", off)
         assert diskcache.cache_dir() is None
+
+
+def test_a_warm_run_never_assembles_k(tmp_dir_shared, comm, monkeypatch):
+    """The fused rows step the run and λmax comes from the cache, so a warm run
+    never assembles K as a PETSc matrix (its vectors take K's layout without it);
+    the matrix, assembled when asked for, has the layout of those vectors."""
+    from fricfem.model import assembly
+
+    n = count_calls(monkeypatch, {"K": (assembly, "petsc_matrix")})
+    monkeypatch.setenv("FRICFEM_CACHE", str(tmp_dir_shared / "cache"))
+    scene = _scene()
+    run_scene(scene, tmp_dir_shared / "cold", comm, quiet=True)
+    assert n == {"K": 1}, "the power iteration of an empty cache multiplies by K"
+    run_scene(scene, tmp_dir_shared / "warm", comm, quiet=True)
+    assert n == {"K": 1}, "a warm run assembled K"
+    _, model = build_mod.build_model(scene, comm)
+    x = model.K.createVecRight()
+    assert n == {"K": 1}
+    x.array[:] = np.random.default_rng(comm.rank).standard_normal(x.getLocalSize())
+    y = model.K.mat.createVecRight()
+    assert n == {"K": 2}
+    assert (x.getSizes(), x.getType()) == (y.getSizes(), y.getType())
+    model.K.mult(x, y)  # forwarded to the matrix
+    assert np.isfinite(y.array).all() and x.dot(y) > 0  # K is positive semi-definite; a random x is not in its null space

@@ -153,6 +153,43 @@ def petsc_matrix(num, rows: tuple, comm) -> PETSc.Mat:
     return K
 
 
+class Stiffness:
+    """K as a PETSc matrix (:func:`petsc_matrix`), assembled when first used.
+
+    A run steps with the fused rows (:mod:`fricfem.step.fused`) and takes λmax
+    from the set-up cache, so it needs K's vector layout but not the matrix:
+    :meth:`createVecRight` makes a vector of that layout without it (~0.1 s
+    of a run's set-up on the reference mesh, and K's memory).  Anything else
+    (``mult``, the power iteration, the benchmarks' bare MatMult) assembles it
+    on first use and goes to the matrix; that first use is collective, as the
+    product it serves."""
+
+    def __init__(self, num, rows: tuple, comm):
+        self._make = lambda: petsc_matrix(num, rows, comm)
+        self._mat = None
+        self.comm = comm
+        self.n_local = 2 * num.n_owned
+
+    @property
+    def mat(self) -> PETSc.Mat:
+        if self._mat is None:
+            self._mat = self._make()
+            self._make = None
+        return self._mat
+
+    def createVecRight(self) -> PETSc.Vec:  # noqa: N802 (PETSc's name)
+        """A vector with K's column layout (the displacement's), as ``Mat.createVecRight``."""
+        v = PETSc.Vec().create(comm=self.comm)
+        v.setSizes((self.n_local, PETSc.DETERMINE))
+        v.setType(PETSc.Vec.Type.STANDARD)
+        return v
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self.mat, name)
+
+
 def impact_dofs(V, facet_tags, names) -> np.ndarray:
     """Owned local x1-dof indices on the facets tagged with any of ``names``."""
     if not names:

@@ -15,7 +15,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from petsc4py import PETSc
 
 from .. import friction
 from ..step.fused import FusedBulk, block_rows
@@ -26,7 +25,7 @@ from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
 from .assembly import (_per_point, canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
-                       impact_dofs, max_eigenvalue, petsc_matrix, round_down)
+                       impact_dofs, max_eigenvalue, round_down, Stiffness)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
 from .material import Material
@@ -56,7 +55,7 @@ class Model(NamedTuple):
     """Everything assembled once for a run (no run state)."""
 
     V: object  # dolfinx FunctionSpace (P1 vector)
-    K: PETSc.Mat
+    K: Stiffness  # PETSc AIJ, assembled when first used (a run needs only its vectors)
     mass: np.ndarray  # lumped mass, owned dofs [kg/m]
     dt_minv: np.ndarray  # dt / mass
     impact: Impact
@@ -111,7 +110,7 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
             rows = diskcache.cached_rows(pm.spec, material, num, comm, lambda: canonical_rows(num, cells))
         else:
             rows = canonical_rows(num, cells)
-        K = petsc_matrix(num, rows, comm)
+        K = Stiffness(num, rows, comm)
         mass = canonical_mass(num, cells.rho)
         dofs = impact_dofs(V, pm.facet_tags, impact_tags)
         if interface_kind == "rigid":

@@ -475,7 +475,8 @@ def validate(raw: dict) -> Scene:
         check_value(f"output.stations.{name}", Key(NUM, 0.0, "m", 0.0, spec.length,
                                                    "station position along the interface"), x)
     for i, t in enumerate(out["fields"]):
-        check_value(f"output.fields[{i}]", Key(NUM, 0.0, "s", 0.0, tm["end"], "snapshot time", open_low=True), t)
+        check_value(f"output.fields[{i}]", Key(NUM, 0.0, "s", 0.0, tm["end"], "snapshot time, within time.end; "
+                                               "--set output.fields=[] writes none", open_low=True), t)
     absorbing = _absorbing(sec["mesh"]["absorbing"])
     if itf["kind"] == "rigid" and friction.get_law(law).rigid is None:
         rigid = sorted(n for n, lw in friction.LAWS.items() if lw.rigid is not None)
