@@ -181,6 +181,30 @@ def test_mesh_presets_and_tags(comm):
         assert grid.estimate_quads(mesh.preset(name)) == quads
 
 
+@pytest.mark.parametrize("scene", ["case1", "experiment_42"])
+def test_cell_tags_are_dolfinx_distributing_them(comm, scene):
+    """Each rank's cell tags, taken from its cells' grid indices, are those dolfinx's
+    distribute_entity_data sends with the cells: the plates, and the experiment's
+    steel bodies, on 1 and 2 ranks."""
+    import dolfinx.cpp as cpp
+    import dolfinx.mesh as dmesh
+    from rankcheck import comms
+
+    spec = load_scene(scene, ["mesh.preset='coarse'"]).mesh
+    for where, c in comms(comm):
+        pm = mesh.build(spec, c)
+        if c.rank == 0:
+            _, cells, tags, _, _ = grid.grid_arrays(spec)
+        else:
+            cells, tags = np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int32)
+        ents, vals = cpp.io.distribute_entity_data(pm.mesh._mesh, 2, cells, tags)
+        ref = dmesh.meshtags_from_entities(pm.mesh, 2, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+        seen = set().union(*c.allgather(set(ref.values.tolist())))  # one plate a rank on 2 ranks
+        assert len(seen) == (4 if scene.startswith("experiment") else 2), where
+        assert np.array_equal(pm.cell_tags.indices, ref.indices), where
+        assert np.array_equal(pm.cell_tags.values, ref.values), where
+
+
 @pytest.mark.parametrize(
     "change, message",
     [
