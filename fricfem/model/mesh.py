@@ -146,13 +146,38 @@ def _cell_tags(msh, runs: tuple) -> tuple:
     return local, values[np.searchsorted(starts, grid_index, side="right") - 1].astype(np.int32)
 
 
+def _facet_tags(msh, tagged: tuple) -> tuple:
+    """(local facets, their tags) of the tagged grid facets ``tagged`` = (facets as
+    pairs of grid nodes, tags) that this rank holds, owned and ghost: each local
+    facet's two vertices as grid nodes (``input_global_indices`` of the geometry),
+    matched against the tagged pairs.  What distributing the tags with the mesh
+    gives (``tests/test_foundation.py`` compares the two); the tagged facets are the
+    boundary's, a few thousand, so sending them all to every rank is cheap."""
+    facets, tags = tagged
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, 0)
+    # each topology vertex's geometry node, through the cells (same local order in both)
+    c2v = msh.topology.connectivity(tdim, 0).array
+    c2g = msh.geometry.dofmap.array
+    node_of = np.empty(msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts, dtype=np.int64)
+    node_of[c2v] = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[c2g]
+    f2v = msh.topology.connectivity(tdim - 1, 0).array.reshape(-1, 2)
+    mine = np.sort(node_of[f2v], axis=1)
+    want = np.sort(np.asarray(facets, dtype=np.int64), axis=1)
+    n = np.int64(max(int(want.max(initial=0)), int(mine.max(initial=0))) + 1)
+    key_mine, key_want = mine[:, 0] * n + mine[:, 1], want[:, 0] * n + want[:, 1]
+    order = np.argsort(key_want, kind="stable")
+    pos = np.minimum(np.searchsorted(key_want[order], key_mine), max(len(order) - 1, 0))
+    hit = np.flatnonzero(key_want[order][pos] == key_mine) if len(order) else np.zeros(0, dtype=np.int64)
+    return hit.astype(np.int32), np.asarray(tags, dtype=np.int32)[order][pos[hit]]
+
+
 def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
     """Build the two-plate mesh on rank 0 and distribute it over ``comm``
     (collective); the partition is deterministic (:func:`bisection_parts`).
 
     ``msh_file``: also write the grid there as a gmsh model (rank 0).
     """
-    import dolfinx.cpp as cpp
     import dolfinx.mesh as dmesh
 
     if comm.rank == 0:
@@ -169,9 +194,8 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
     msh.topology.create_connectivity(tdim, 0)
     ct = dmesh.meshtags(msh, tdim, *_cell_tags(msh, comm.bcast(_runs(cell_tags) if comm.rank == 0 else None)))
     ct.name = "Cell tags"
-    ents, vals = cpp.io.distribute_entity_data(msh._mesh, tdim - 1, facets, facet_tags)
     msh.topology.create_connectivity(tdim - 1, tdim)
-    ft = dmesh.meshtags_from_entities(msh, tdim - 1, cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
+    ft = dmesh.meshtags(msh, tdim - 1, *_facet_tags(msh, comm.bcast((facets, facet_tags) if comm.rank == 0 else None)))
     ft.name = "Facet tags"
     msh.topology.create_connectivity(1, 2)
     return PlateMesh(msh, ct, ft, spec)
