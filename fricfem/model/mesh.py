@@ -61,8 +61,8 @@ def preset(ref: str) -> MeshSpec:
     """The mesh named ``ref`` in ``meshes/``, or the mesh file at the path ``ref`` (a .toml)."""
     path = Path(ref) if str(ref).endswith(".toml") else MESH_DIR / f"{ref}.toml"
     if not path.is_file():
-        raise ValueError(f"mesh.preset = {str(ref)!r}: no such mesh; allowed: {', '.join(preset_names())} "
-                         "or a path to a .toml mesh file")
+        names = ", ".join(preset_names()) or f"(no mesh files in {MESH_DIR})"
+        raise ValueError(f"mesh.preset = {str(ref)!r}: no such mesh; allowed: {names} or a path to a .toml mesh file")
     try:
         return _read(str(path.resolve()))
     except (OSError, tomllib.TOMLDecodeError) as err:
