@@ -164,16 +164,11 @@ def probe(scene: str, sets: list, out: Path, comm=None) -> dict:
     # phase it started in (a kernel first compiled in a snapshot is output JIT)
     (_, loop0, loop_s), = [c for c in timers.calls if c[0] == "loop"]
     loop1 = loop0 + loop_s
-    observe = [(t0, t0 + d) for n, t0, d in timers.calls if n == "observe"]
-    observe_s = sum(b - a for a, b in observe)
-
-    def jit(kind: str, start: float, end: float, in_observe: bool | None = None) -> float:
-        return sum(d for n, t0, d in timers.calls if n == kind and start <= t0 < end and (
-            in_observe is None or in_observe == any(a <= t0 < b for a, b in observe)))
-
-    jit_setup = {k: jit(k, t_run, loop0) for k in ("ffcx", "numba")}
-    jit_loop = {k: jit(k, loop0, loop1, in_observe=False) for k in ("ffcx", "numba")}
-    jit_output = {k: jit(k, loop0, loop1, in_observe=True) + jit(k, loop1, t_done) for k in ("ffcx", "numba")}
+    observe_s = timers.total("observe")  # the monitor is called only inside the loop
+    in_observe = {k: timers.inside((k,), "observe") for k in ("ffcx", "numba")}
+    jit_setup = {k: timers.total(k, t_run, loop0) for k in ("ffcx", "numba")}
+    jit_loop = {k: timers.total(k, loop0, loop1) - in_observe[k] for k in ("ffcx", "numba")}
+    jit_output = {k: in_observe[k] + timers.total(k, loop1, t_done) for k in ("ffcx", "numba")}
     numba_import = timers.total("numba", end=t_run)
     local = {
         "import_s": t_import, "import_fricfem_s": t_fricfem_import, "numba_jit_in_import_s": numba_import,

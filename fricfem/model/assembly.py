@@ -158,8 +158,8 @@ class Stiffness:
 
     A run steps with the fused rows (:mod:`fricfem.step.fused`) and takes λmax
     from the set-up cache, so it needs K's vector layout but not the matrix:
-    :meth:`createVecRight` makes a vector of that layout without it (~0.1 s
-    of a run's set-up on the reference mesh, and K's memory).  Anything else
+    :meth:`createVecRight` makes a vector of that layout without it (~75 ms
+    of a 2-rank run's set-up on the reference mesh, and K's memory).  Anything else
     (``mult``, the power iteration, the benchmarks' bare MatMult) assembles it
     on first use and goes to the matrix; that first use is collective, as the
     product it serves."""
