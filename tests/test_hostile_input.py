@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import time
 
 import pytest
@@ -142,7 +143,7 @@ PATCH = "{{x1_min = {0}, x1_max = {1}, tau0 = 1e6}}"
     (["time.dt=1e-7", "time.end=5e-8", "output.fields=[]"], ("shorter than one step time.dt",)),
     (["time.dt=1e-6"], ("time.dt = 1e-06 s exceeds the stable step",)),
     (["output.fields=[0.0]"], ("output.fields[0] = 0.0 s", "(0, 4e-05]")),
-    (["output.fields=[41e-6]"], ("output.fields[0] = 4.1e-05 s",)),
+    (["output.fields=[41e-6]"], ("output.fields[0] = 4.1e-05 s", "--set output.fields=[] writes none")),
     (["output.fields=[1e-9]"], ("less than half a step",)),
     (["output.fields=[16e-6, 16e-6]"], ("output.fields[1]", "given twice")),
     (["time.dt=3e-8", "output.fields=[39.99e-6]", "time.end=39.98e-6"], ("output.fields[0]",)),
@@ -158,6 +159,14 @@ def test_a_fixed_step_field_time_must_round_inside_the_run():
     load_scene("case1", ["time.dt=3e-8", "output.fields=[39.9e-6, 4e-5]"])
     # end 5.9e-8 holds one step of 3e-8; a field at 5.9e-8 rounds to step 2: never written
     refused(["time.dt=3e-8", "time.end=5.9e-8", "output.fields=[5.9e-8]"], "rounds to step 2", "1 … 1")
+
+
+def test_a_missing_mesh_directory_is_named(tmp_path, monkeypatch):
+    from fricfem.model import mesh
+
+    monkeypatch.setattr(mesh, "MESH_DIR", tmp_path)
+    with pytest.raises(ValueError, match=re.escape(f"no such mesh; allowed: (no mesh files in {tmp_path}) or a path")):
+        mesh.preset("reference")
 
 
 def test_touching_regions_are_allowed():
