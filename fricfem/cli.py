@@ -133,6 +133,15 @@ def _scenes(args) -> int:
     return 0
 
 
+def _show(args) -> int:
+    from .show import show
+
+    text = show(args.scene, args.set)  # validated first: a bad scene or --set is one error line
+    if _rank() == 0:
+        print(text, end="")
+    return 0
+
+
 def _check_text(scene, est, ranks: int = 1) -> str:
     """What ``fricfem run --check`` prints: the scene is valid, its size and cost against the budget."""
     from .scene import cost
@@ -254,6 +263,12 @@ def main(argv=None) -> int:
     p.add_argument("--keys", action="store_true",
                    help="every key a scene may set: default, unit, allowed range, meaning")
     p.set_defaults(func=_scenes)
+    p = sub.add_parser("show", help="print a scene resolved through its base chain (and --set) as TOML that "
+                                    "`fricfem run` accepts back")
+    p.add_argument("scene", help="shipped scene name (see `fricfem scenes`) or path to a .toml file")
+    p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                   help="override a scene key, e.g. --set loading.v_imp=10 (repeatable)")
+    p.set_defaults(func=_show)
     p = sub.add_parser("run", help="run a scene (shipped name or .toml file); works under mpirun")
     p.add_argument("scene", help="shipped scene name (see `fricfem scenes`) or path to a .toml file")
     p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
