@@ -57,7 +57,15 @@ def open_run(rundir):
     from .output.rundir import open_run as _open
 
     run = _open(rundir)
-    run.gauges = open_gauges(rundir)
+    run.damaged = {}  # {file: why it could not be read}: the optional files a damaged copy of is left out
+    try:
+        run.gauges = open_gauges(rundir)
+    except OSError as err:  # an optional file: the rest of the run is still read
+        import warnings
+
+        run.gauges = None
+        run.damaged[str(err.filename)] = err.strerror
+        warnings.warn(f"{err.filename}: {err.strerror}; run.gauges is None", stacklevel=2)
     return run
 
 

@@ -97,12 +97,15 @@ def watchdog_code(finite: bool, energy, limits: dict) -> int:
       so the budget closes to round-off (≤ 2.1e-13 E measured); a breach means a
       force acted that the budget does not see, or the sums lost their precision.
 
+    Codes 1–3 are a divergence whatever ``watchdog.enabled`` says (no such state
+    is a result); with the watchdog disabled the run goes on to its end but is
+    marked diverged, never complete (:attr:`Monitor.diverged`).  The budget's
+    closure (4) is checked only with the watchdog enabled.
+
     A large slip rate is *not* a divergence: the Povirk–Needleman point's slip
     rate is bounded over any finite time, and peaks far above c_l are genuine at
     strong loading (docs/friction_reference.md §4).
     """
-    if not limits["enabled"]:
-        return 0
     if not finite:
         return 1
     if energy is not None:
@@ -113,7 +116,7 @@ def watchdog_code(finite: bool, energy, limits: dict) -> int:
         scale = energy_scale(energy)
         if energy["kinetic"] < -eps * scale:
             return 3
-        if abs(energy["balance_error"]) > eps * scale:
+        if limits["enabled"] and abs(energy["balance_error"]) > eps * scale:
             return 4
     return 0
 
@@ -210,7 +213,7 @@ class Monitor:
     ``output.flush_every`` has passed, and returns why the run must stop, if it
     must: ``"watchdog"`` (divergence; :attr:`stopped` says why), ``"tip"``
     (the tip passed ``time.stop_at_tip``; :attr:`ended_early`), ``"signal"``
-    (SIGTERM) or None.
+    (SIGTERM or SIGINT) or None.
     """
 
     def __init__(self, scene, model, recorder, writer, every: int, flush):
@@ -231,8 +234,9 @@ class Monitor:
         self.end = {}  # "energy": the energies taken in the run's last step (set by the runner's loop)
         self.rows_pending = 0  # interface rows since the last flush (the same on every rank)
         self.last_flush = time.perf_counter()
-        self.stop_requested = False  # set by the SIGTERM handler
+        self.stop_requested = False  # set by the SIGTERM and SIGINT handler
         self.stopped = None
+        self.diverged = None  # the watchdog disabled: why the run diverged (it went on; never complete)
         self.ended_early = None
         self.seconds = 0.0  # wall time spent here [s]
         self.glob = np.full(6, -1.0)
@@ -257,7 +261,9 @@ class Monitor:
         seen, local = self.seen, self.local
         look(x1, p.slip_rate, p.Ts, p.Tn, seen)  # tip, first sliding, largest slip rate, finite?
         code = watchdog_code(not seen[3], e if e is not None else self.end.get("energy"), scene.watchdog)
-        local[0], local[1], local[4], local[5] = seen[0], seen[1], code, seen[2]
+        # the watchdog disabled: a divergence is reduced as code / 10 (< 1, no stop; :meth:`_stop`)
+        local[0], local[1], local[5] = seen[0], seen[1], seen[2]
+        local[4] = code if scene.watchdog["enabled"] else 0.1 * code
         local[2] = 1.0 if self.stop_requested else 0.0
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
         glob = self.glob
@@ -293,9 +299,13 @@ class Monitor:
         return self._stop(st, glob)
 
     def _stop(self, st, glob) -> str | None:
-        if glob[4] > 0:
+        if glob[4] >= 1:
             self.stopped = _watchdog_message(int(glob[4]), st.t, self.model, self.scene.watchdog)
             return "watchdog"
+        if glob[4] > 0 and self.diverged is None:  # watchdog.enabled = false: the run goes on, never complete
+            self.diverged = (_watchdog_message(int(round(10 * glob[4])), st.t, self.model, self.scene.watchdog)
+                             .replace("watchdog stopped the run", "the run diverged (watchdog.enabled = false: "
+                                      "not stopped)"))
         if self.scene.stop_at_tip and glob[0] > self.scene.stop_at_tip:
             self.ended_early = (f"the sliding tip passed x1 = {self.scene.stop_at_tip * 1e3:g} mm at "
                                 f"t = {st.t_interface * 1e6:.3f} µs")

@@ -176,11 +176,19 @@ def read_evidence(rundir) -> dict:
 def merge(summary: dict, evidence: dict) -> dict:
     """The whole record from a summary and its evidence (see :func:`read_summary`)."""
     summary = dict(summary)
+    for key, kind, what in (("tip", dict, "an object"), ("fronts", list, "a list")):
+        if key in evidence and not isinstance(evidence[key], kind):
+            log.warning("evidence.json: %r is %s, not %s; going on without it", key, type(evidence[key]).__name__,
+                        what)
+            evidence = {k: v for k, v in evidence.items() if k != key}
     if "tip" in evidence:
-        summary["tip"] = {**(summary.get("tip") or {}), **evidence["tip"]}
+        tip = summary.get("tip")
+        summary["tip"] = {**(tip if isinstance(tip, dict) else {}), **evidence["tip"]}
     if "fronts" in evidence:
-        brief = summary.get("fronts") or []
-        summary["fronts"] = [{**(brief[i] if i < len(brief) else {}), **f} for i, f in enumerate(evidence["fronts"])]
+        brief = summary.get("fronts")
+        brief = brief if isinstance(brief, list) else []
+        summary["fronts"] = [{**(brief[i] if i < len(brief) and isinstance(brief[i], dict) else {}),
+                              **(f if isinstance(f, dict) else {})} for i, f in enumerate(evidence["fronts"])]
     if "mode_evidence" in evidence and isinstance(summary.get("mode"), dict):
         summary["mode"] = {**summary["mode"], "evidence": evidence["mode_evidence"]}
     return summary

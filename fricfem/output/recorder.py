@@ -27,6 +27,7 @@ no NaN rows.
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 from pathlib import Path
@@ -110,10 +111,14 @@ class Recorder:
         self.h5 = None
         error = None
         if self.comm.rank == 0:
+            need = _nbytes(self.rows, self.n_point, len(self.names), len(self.stations), len(ENERGY))
             try:
+                # HDF5 cannot survive a failed write while it lays a file out (it crashes in close):
+                # the space is checked first, for the file and for its end-of-run copy (close)
+                check_space(self.path, 2 * need + _metadata_bytes(len(self.names), len(self.stations)),
+                            "the interface file and its end-of-run copy")
                 self.h5 = self._create(scene, speeds)
             except OSError as err:
-                need = _nbytes(self.rows, self.n_point, len(self.names), len(self.stations), len(ENERGY))
                 error = f"{err.filename}: cannot write the run's interface file ({need / 1e6:.3g} MB): {err.strerror}"
         error = self.comm.bcast(error, root=0)
         if error is not None:
@@ -359,6 +364,8 @@ def compact(path: Path, rows: dict) -> None:
 
     path = Path(path)
     tmp = path.with_name(f".{path.name}.compact")
+    # HDF5 crashes on a write that fails: the copy (at most the file's size) must fit first
+    check_space(path, os.path.getsize(path) + (64 << 10), "the interface file's end-of-run copy")
     if _full(path, rows):  # nothing to trim (a run that reached its end): the bytes as they are
         try:
             shutil.copyfile(path, tmp)  # in the kernel (copy_file_range), not through HDF5
@@ -415,6 +422,25 @@ def _full(path: Path, rows: dict) -> bool:
     with h5py.File(path, "r") as f:
         f.visititems(check)
     return full
+
+
+def _metadata_bytes(n_quantities: int, n_stations: int) -> int:
+    """An upper bound of the interface file's HDF5 metadata [bytes] (measured: ~0.2 kB a dataset)."""
+    return (64 << 10) + 2048 * (n_quantities + 1 + 11 * n_stations + len(ENERGY))
+
+
+def free_bytes(folder) -> int:
+    """The bytes an unprivileged process may still write on ``folder``'s file system."""
+    st = os.statvfs(folder)
+    return st.f_bavail * st.f_frsize
+
+
+def check_space(path: Path, need: int, what: str) -> None:
+    """Raise ``OSError(ENOSPC)`` naming ``path`` when its file system has fewer than ``need`` bytes free."""
+    free = free_bytes(Path(path).parent)
+    if free < need:
+        raise OSError(errno.ENOSPC, f"No space left on device: {what} need {need / 1e6:.3g} MB, the file system "
+                      f"has {free / 1e6:.3g} MB free", str(path))
 
 
 def _nbytes(rows: dict, n_point: int, n_quantities: int, n_stations: int, n_energy: int) -> int:

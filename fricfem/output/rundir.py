@@ -213,11 +213,30 @@ def _h5open(path):
     """Open an HDF5 file read-only without taking HDF5's file lock (a run may be
     writing it); HDF5 builds without the option are opened normally."""
     try:
-        f = h5py.File(path, "r", locking=False)
-    except (TypeError, ValueError):
-        f = h5py.File(path, "r")
+        try:
+            f = h5py.File(path, "r", locking=False)
+        except TypeError:
+            f = h5py.File(path, "r")
+        except OSError as err:
+            if "locking flag" not in str(err):
+                raise
+            # this process already holds the file open with HDF5's lock (a user's h5py.File): HDF5 shares
+            # an open file within a process only with the same locking setting
+            f = h5py.File(path, "r")
+    except (OSError, ValueError) as err:
+        raise unreadable(path, err) from None
     with f:
         yield f
+
+
+def unreadable(path, err: Exception) -> OSError:
+    """An OSError naming ``path`` for an HDF5 file that cannot be opened (h5py's own names no file)."""
+    text = " ".join(str(err).split())
+    if "signature" in text or "truncated" in text or "bad object header" in text or "not an HDF5" in text:
+        reason = f"damaged or not an HDF5 file ({text})"
+    else:
+        reason = f"cannot be read ({text})"
+    return OSError(getattr(err, "errno", None), reason, str(path))
 
 
 def pyvista_module():
@@ -343,6 +362,14 @@ class Run:
         path = self.dir / INTERFACE_FILE
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no interface.h5 (not a run directory, or the run wrote nothing yet)")
+        try:
+            self._read(path)
+        except (KeyError, ValueError, TypeError, IndexError) as err:  # h5py's errors name no file
+            raise OSError(None, f"not an interface file fricfem wrote, or damaged ({type(err).__name__}: "
+                          f"{' '.join(str(err).split())})", str(path)) from None
+        self._cache = {}
+
+    def _read(self, path: Path) -> None:
         with open_interface(path) as itf:
             self.t = np.asarray(itf.time, dtype=np.float64)
             self.x1 = np.asarray(itf.x1, dtype=np.float64)
@@ -358,7 +385,6 @@ class Run:
 
         self.units = {"t": "s", "x1": "m", **{name: stored[name] if stored[name] is not None else unit(name)
                                                for name in self.names}, **ENERGY}
-        self._cache = {}
 
     def quantity(self, name: str) -> np.ndarray:
         """float64[n_t, n_p] of interface quantity ``name`` (valid rows)."""
@@ -375,7 +401,12 @@ class Run:
         return self.quantity(name)
 
     def at(self, t: float) -> int:
-        """Index of the stored row nearest to ``t`` [s]."""
+        """Index of the stored row nearest to ``t`` [s]; a run with no row yet (still
+        starting, or killed before its first flush) raises :class:`LookupError` saying so."""
+        if not len(self.t):
+            state = "complete" if self.summary.get("complete") else "still going or stopped"
+            raise LookupError(f"{self.dir}: no interface row written yet (the run is {state}, "
+                              f"{self.summary.get('steps', 0)} steps in summary.json): nothing at t = {t:.6g} s")
         return int(np.argmin(np.abs(self.t - t)))
 
     def profile(self, name: str, t: float) -> np.ndarray:
