@@ -140,8 +140,10 @@ def _check_step(scene: Scene, model, comm) -> None:
                          "mesh and interface; use time.dt_safety in (0, 1) (or set "
                          "time.allow_unstable_dt = true for a stability experiment)")
     if comm.rank == 0:
+        then = ("the watchdog will stop the run if it diverges" if scene.watchdog["enabled"] else
+                "a divergence marks the run diverged, never complete (watchdog.enabled = false: not stopped)")
         sys.stderr.write(f"fricfem: warning: time.dt = {model.dt:.3g} s exceeds the stable step "
-                         f"{model.dt_crit:.3g} s; the watchdog will stop the run if it diverges\n")
+                         f"{model.dt_crit:.3g} s; {then}\n")
 
 
 def _summary(scene: Scene, pm, model, comm) -> dict:
@@ -211,9 +213,16 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
     The first step (with the kernels' compilation or cache load) is timed alone
     (``monitor.first_step_s``); ``monitor.cost`` times the parts of the others."""
     stop = None
-    previous = None
+    previous = {}
+
+    def request_stop(signum, frame):
+        if signum == signal.SIGINT and monitor.stop_requested:  # a second Ctrl-C: stop now
+            raise KeyboardInterrupt
+        monitor.stop_requested = True  # every rank stops at the next check (Monitor), outputs finalised
+
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, lambda *_: setattr(monitor, "stop_requested", True))
+        # SIGTERM and SIGINT (Ctrl-C) alike end the run cleanly: the summary finalised, the files compacted
+        previous = {sig: signal.signal(sig, request_stop) for sig in (signal.SIGTERM, signal.SIGINT)}
     try:
         for st, e in _steps(model, state, scene.t_end, scene.output["energy_every"], monitor):
             stop = monitor.observe(st, e)
@@ -228,8 +237,8 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
             if stop:
                 break
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return stop
 
 
@@ -374,23 +383,34 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     if monitor.gauges is not None:
         monitor.gauges.close()
     summary.update(
-        steps=state.n, t_s=state.t, complete=stop not in ("signal", "watchdog"), interrupted=stop == "signal",
+        steps=state.n, t_s=state.t, complete=stop not in ("signal", "watchdog") and monitor.diverged is None,
+        interrupted=stop == "signal", **({"diverged": monitor.diverged} if monitor.diverged else {}),
         watchdog=monitor.stopped, ended_early=monitor.ended_early, initiation=monitor.initiation,
         energy=_energy(monitor),
     )
     # slip-rate spikes (peak, place, time; fricfem/monitor.py Spikes): reported, never a stop
     summary["slip_rate_spike"] = monitor.spikes.report()
-    if comm.rank == 0 and scene.output["diagnostics"] and not monitor.stopped:
+    if comm.rank == 0 and monitor.diverged:
+        sys.stderr.write(f"fricfem: warning: {monitor.diverged}\n")
+    if comm.rank == 0 and scene.output["diagnostics"] and not monitor.stopped and not monitor.diverged:
         try:
             summary.update(_diagnose(rec, monitor.tip_t, monitor.tip_x, summary["speeds"], every))
         except Exception as err:  # keep the run's outputs; say what failed
             summary["diagnostics_error"] = f"diagnostics failed: {type(err).__name__}: {err}"
+    if monitor.diverged:
+        summary["mode"] = {"label": "unknown", "reason": monitor.diverged}
     if stop == "signal":  # the classifier needs the whole run: what it saw so far is evidence only
         partial = summary.get("mode") or {}
         summary["mode"] = {"label": "unknown", "reason": f"interrupted at t = {state.t * 1e6:.3f} µs, before "
                            f"time.end = {scene.t_end * 1e6:.3f} µs", "partial_label": partial.get("label"),
                            **({"evidence": partial["evidence"]} if "evidence" in partial else {})}
-    rec.close()
+    try:
+        rec.close()
+    except OSError as err:  # the laid-out file stays, whole and readable: its NaN rows are not computed
+        summary["interface_file"] = (f"{INTERFACE_FILE} kept as laid out (rows past the run's end are NaN), not "
+                                     f"compacted: {err.filename}: {err.strerror}")
+        if comm.rank == 0:
+            sys.stderr.write(f"fricfem: warning: {summary['interface_file']}\n")
     output_s = monitor.seconds + time.perf_counter() - t1
     summary["wall_s"] = {**wall, "output": output_s, "total": time.perf_counter() - t_start}
     summary["us_per_step"] = 1e6 * wall["time_loop"] / max(state.n, 1)

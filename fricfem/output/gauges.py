@@ -341,6 +341,13 @@ class GaugeFile:
         from .rundir import _h5open, valid_rows
 
         self.path = Path(path)
+        try:
+            self._read(_h5open, valid_rows)
+        except (KeyError, ValueError, TypeError, IndexError) as err:  # h5py's errors name no file
+            raise OSError(None, f"not a gauges file fricfem wrote, or damaged ({type(err).__name__}: "
+                          f"{' '.join(str(err).split())})", str(self.path)) from None
+
+    def _read(self, _h5open, valid_rows) -> None:
         with _h5open(self.path) as f:
             n = valid_rows(f["time"])
             g = f["gauge"]
