@@ -20,13 +20,58 @@ Importing fricfem loads nothing heavy; each function imports what it needs.
 __version__ = "0.1.0"
 
 
+def _ranks() -> int:
+    """The job's rank count as mpirun tells it (without initialising MPI)."""
+    import os
+
+    for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS"):
+        value = os.environ.get(var, "")
+        if value.isdigit():
+            return int(value)
+    return 1
+
+
+def _end_job_on_uncaught() -> None:
+    """On more than one rank, an exception no one catches ends the whole job: one line
+    naming the rank, then ``MPI_Abort`` (otherwise the other ranks wait forever in
+    their next collective: a law registered on one rank only, then ``load_scene``
+    raising on the others).  Installed by the API's entry points; a hook of the
+    user's own (anything but Python's default) is left alone."""
+    import sys
+
+    if _ranks() <= 1 or sys.excepthook is not sys.__excepthook__:
+        return
+
+    def hook(kind, value, tb):
+        from mpi4py import MPI
+
+        if issubclass(kind, ValueError):  # SceneError and the other bad-input errors: their one line
+            what = f"{kind.__name__}: {value}"
+        else:
+            sys.__excepthook__(kind, value, tb)
+            what = f"{kind.__name__}: {' '.join(str(value).split())}"
+        comm = MPI.COMM_WORLD
+        sys.stderr.write(f"fricfem: error: rank {comm.rank} of {comm.size}: {what}; ending every rank (MPI_Abort)\n")
+        sys.stderr.flush()
+        comm.Abort(1)
+
+    sys.excepthook = hook
+
+
 def load_scene(ref, overrides=()):
     """A validated scene (:class:`fricfem.scene.Scene`) from a shipped name or a
     .toml path, with ``--set``-style overrides (``"section.key=value"``).
     Raises :class:`fricfem.scene.SceneError` naming the key on bad input."""
-    from .scene import load
+    from .scene import SceneError, load
 
-    return load(ref, overrides)
+    _end_job_on_uncaught()
+    try:
+        return load(ref, overrides)
+    except SceneError as err:
+        if _ranks() > 1 and "unknown friction law" in str(err):
+            raise SceneError(f"{err} (under MPI, fricfem.register_law must run on every rank: was the law "
+                             "registered on some ranks only?)") from None
+        raise
 
 
 def run(scene, out=None, *, comm=None, overwrite=False, quiet=True, on_step=None) -> dict:
@@ -40,6 +85,7 @@ def run(scene, out=None, *, comm=None, overwrite=False, quiet=True, on_step=None
     from .runner import run_scene
     from .scene import Scene, load
 
+    _end_job_on_uncaught()
     if not isinstance(scene, Scene):
         scene = load(scene)
     out = Path(out) if out else Path("runs") / scene.name
@@ -76,4 +122,5 @@ def register_law(law, *, replace=False):
     (:func:`fricfem.friction.register_law`; docs/api.md, "A law of your own")."""
     from .friction import register_law as _register
 
+    _end_job_on_uncaught()
     return _register(law, replace=replace)

@@ -58,6 +58,81 @@ class Progress:
 _WATCH = {1: "non-finite interface tractions or slip rates", 2: "non-finite energies",
           3: "negative discrete kinetic energy", 4: "the energy budget does not close"}
 
+#: a user's law breaking its contract during a run (:class:`LawWatch`) -> what; codes above the watchdog's
+_LAW = {11: "a negative slip rate (the contract: slip rate >= 0)",
+        12: "negative frictional work: a point's dissipated energy decreased (the contract: work >= 0)",
+        13: "nsub < 0 (the contract: the number of sub-steps used, >= 0)",
+        14: "it wrote into its parameter array p (read-only by the contract)",
+        15: "its work does not balance: interface work != stored elastic + dissipated energy"}
+
+#: the relative bound of a user law's interface budget (:class:`LawWatch`): the built-in laws, run as user
+#: laws, close it to ~2e-4 (their sub-steps' quadrature of the work against the step's trapezoid)
+LAW_BUDGET_TOL = 0.02
+
+
+class LawWatch:
+    """A user's friction law checked as it runs (its checks at registration see a few
+    calls only): slip rate >= 0, each point's dissipated energy never decreasing,
+    nsub >= 0, its parameter rows unchanged, every step (vectorised,
+    this rank's points, no communication); and at energy steps the interface's
+    budget over this rank's points,
+
+        W − E_el − D + Σ w T_s0 s = 0,
+
+    W the work the bulk did on the interface (booked against the initial
+    tractions), E_el the energy the interface springs store, D the work the law
+    booked as dissipated and s the signed slip (tracked here), within
+    :data:`LAW_BUDGET_TOL` of Σ w (|W| + E_el + |D| + |T_s0 s|): a law that slips but books
+    no work, or books work it did not do, breaks it.  :meth:`code` returns 0 or a
+    code of :data:`_LAW`.  Built-in laws are not watched (the suite checks them)."""
+
+    def __init__(self, interface):
+        self.p = interface.points
+        self.wq = interface.geometry.wq
+        self.rigid = type(interface).__name__ == "RigidInterface"  # no interface spring: nothing stored
+        self.params0 = self.p.param_rows.copy()
+        self.d_last = self.p.dissipated.copy()
+        self.slip_last = self.p.slip.copy()
+        self.signed = np.zeros_like(self.p.slip)
+
+    def code(self, energy_step: bool) -> int:
+        p = self.p
+        dslip = p.slip - self.slip_last
+        self.signed += np.sign(p.Ts) * dslip
+        self.slip_last[:] = p.slip
+        if p.slip_rate.min(initial=0.0) < 0.0:
+            return 11
+        if np.any(p.dissipated < self.d_last):
+            return 12
+        self.d_last[:] = p.dissipated
+        if p.nsub.min(initial=0) < 0:
+            return 13
+        if not np.array_equal(p.param_rows, self.params0):
+            return 14
+        if energy_step and self.budget_error() > LAW_BUDGET_TOL:
+            return 15
+        return 0
+
+    def budget_error(self) -> float:
+        """|W − E_el − D + Σ w T_s0 s| / Σ w (|W| + E_el + |D| + |T_s0 s|) over this rank's points (0: nothing yet)."""
+        p, w = self.p, self.wq
+        if self.rigid:
+            elastic = np.zeros_like(p.work)
+        else:
+            closed = p.is_open == 0
+            elastic = np.where(closed, 0.5 * p.Cn * p.jump_n ** 2, 0.0)
+            elastic += np.where(p.Cs > 0, 0.5 * (p.Ts - p.Ts0) ** 2 / np.where(p.Cs > 0, p.Cs, 1.0), 0.0)
+        pre = p.Ts0 * self.signed  # the initial traction's work on the slip (W is booked against it)
+        res = float(np.dot(w, p.work - elastic - p.dissipated + pre))
+        size = float(np.dot(w, np.abs(p.work) + elastic + np.abs(p.dissipated) + np.abs(pre)))
+        return abs(res) / size if size > 1e-300 else 0.0
+
+
+def _law_message(code: int, t: float, law: str) -> str:
+    return (f"the run was stopped at t = {t * 1e6:.3f} µs: friction law {law!r} broke its contract "
+            f"(fricfem.friction.base): {_LAW[code]}")
+
+
 #: Energies below this [J/m] are round-off (the floor of the energy scale at t = 0).
 _ENERGY_FLOOR = 1e-12
 
@@ -236,6 +311,9 @@ class Monitor:
         self.last_flush = time.perf_counter()
         self.stop_requested = False  # set by the SIGTERM and SIGINT handler
         self.stopped = None
+        from .friction import BUILT_IN
+
+        self.law_watch = None if model.interface.law.name in BUILT_IN else LawWatch(model.interface)
         self.diverged = None  # the watchdog disabled: why the run diverged (it went on; never complete)
         self.ended_early = None
         self.seconds = 0.0  # wall time spent here [s]
@@ -264,6 +342,8 @@ class Monitor:
         # the watchdog disabled: a divergence is reduced as code / 10 (< 1, no stop; :meth:`_stop`)
         local[0], local[1], local[5] = seen[0], seen[1], seen[2]
         local[4] = code if scene.watchdog["enabled"] else 0.1 * code
+        if self.law_watch is not None:  # a user's law: its contract, every step (codes above the watchdog's)
+            local[4] = max(local[4], self.law_watch.code(e is not None))
         local[2] = 1.0 if self.stop_requested else 0.0
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
         glob = self.glob
@@ -299,6 +379,9 @@ class Monitor:
         return self._stop(st, glob)
 
     def _stop(self, st, glob) -> str | None:
+        if glob[4] >= min(_LAW):
+            self.stopped = _law_message(int(glob[4]), st.t, self.model.interface.law.name)
+            return "watchdog"
         if glob[4] >= 1:
             self.stopped = _watchdog_message(int(glob[4]), st.t, self.model, self.scene.watchdog)
             return "watchdog"

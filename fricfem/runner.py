@@ -63,6 +63,30 @@ def prepare_outdir(out: Path, comm, overwrite: bool):
     return lock
 
 
+def check_laws(scene: Scene, comm) -> None:
+    """The friction laws registered by the user are the same on every rank (collective:
+    one allgather of their names and definitions), else a :class:`SceneError` on every
+    rank naming the law and the ranks that have it (fricfem.register_law runs on each)."""
+    if comm.size == 1:
+        return
+    from .friction import BUILT_IN, LAWS
+
+    mine = {name: repr((law.params, law.state, law.memo)) for name, law in LAWS.items() if name not in BUILT_IN}
+    everyone = comm.allgather((mine, scene.law))
+    names = sorted({n for laws, _ in everyone for n in laws} | {law for _, law in everyone if law not in BUILT_IN})
+    for name in names:
+        held = [r for r, (laws, _) in enumerate(everyone) if name in laws]
+        if len(held) != comm.size:
+            raise SceneError(f"friction law {name!r} is registered on rank(s) {held} of {comm.size} only: call "
+                             "fricfem.register_law on every rank (the same script runs on each)")
+        if len({laws[name] for laws, _ in everyone}) > 1:
+            raise SceneError(f"friction law {name!r} is registered with different parameters or state on "
+                             "different ranks: register the same law on every rank")
+    if len({law for _, law in everyone}) > 1:
+        raise SceneError(f"friction.law differs between ranks ({[law for _, law in everyone]}): every rank runs "
+                         "the same scene")
+
+
 class Background:
     """Rank 0's periodic ``summary.json``, its file written by a thread while the
     loop goes on: replacing a file waits for the disk (~2 ms on ext4, little of it
@@ -302,6 +326,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     """
     t_start = time.perf_counter()
     out = Path(out)
+    check_laws(scene, comm)
     lock = prepare_outdir(out, comm, overwrite)
     try:
         return _guarded(comm, out, lambda: _run(scene, out, comm, quiet, on_step, build, t_start))

@@ -41,17 +41,37 @@ def _smoke(law: Law) -> None:
     the outputs of the contract (:mod:`.base`), finite, with the right sizes."""
     where = f"register_law({law.name!r})"
     p = pack(law, defaults(law))
-    state = np.asarray(law.initial_state(p, 1e6, 0.0), dtype=np.float64)
-    if state.shape != (len(law.state),):
-        raise ValueError(f"{where}: initial_state returned shape {state.shape}; the law declares "
-                         f"{len(law.state)} state variable(s) {law.state}")
+    kept = p.copy()
+    state = initial_state(law, p, 1e6, 0.0, where)
     for vs in (0.0, 1e3):  # a sticking and a strongly loaded step
         _call(where, "advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)", "Ts1", law.advance,
               (p, storage(law, state), 0.0, 1e6, 1e6, vs, 1e11, 1e-8))
+    if not np.array_equal(p, kept, equal_nan=True):
+        raise ValueError(f"{where}: advance wrote into its parameter array p (read-only by the contract; "
+                         f"{', '.join(param_names(law))} = {kept.tolist()} became {p.tolist()})")
     if math.isnan(float(law.steady_mu(p, 1.0))):
         raise ValueError(f"{where}: steady_mu(p, 1.0) is NaN")
     if law.rigid is not None:
         _smoke_rigid(law, p, state, where)
+
+
+def initial_state(law: Law, p, Tn0: float, Ts0: float, where: str = "") -> np.ndarray:
+    """``law.initial_state(p, Tn0, Ts0)`` checked against the contract: float64[n_state],
+    finite; a failure is one ValueError naming the law, the call and its arguments."""
+    where = where or f"friction law {law.name!r}"
+    call = f"initial_state(p, Tn0 = {Tn0:.6g} Pa, Ts0 = {Ts0:.6g} Pa)"
+    try:
+        state = np.asarray(law.initial_state(p, Tn0, Ts0), dtype=np.float64)
+    except Exception as err:
+        raise ValueError(f"{where}: {call} failed: {type(err).__name__}: {err} "
+                         f"(parameters {dict(zip(param_names(law), np.asarray(p).tolist()))})") from None
+    if state.shape != (len(law.state),):
+        raise ValueError(f"{where}: initial_state returned shape {state.shape}; the law declares "
+                         f"{len(law.state)} state variable(s) {law.state}")
+    if not np.isfinite(state).all():
+        raise ValueError(f"{where}: {call} returned {state.tolist()}: every state variable "
+                         f"({', '.join(law.state)}) must be finite")
+    return state
 
 
 def _smoke_rigid(law: Law, p, state, where: str) -> None:
@@ -74,6 +94,8 @@ def _call(where: str, signature: str, first: str, fn, args) -> None:
         raise ValueError(f"{where}: {verb} must return ({first}, slip_rate, dslip, dwork, nsub), got {out!r}")
     if not all(math.isfinite(float(v)) for v in out) or min(out[1], out[2], out[3]) < 0:
         raise ValueError(f"{where}: {verb} returned {out!r}: every output finite, slip rate, slip and work >= 0")
+    if int(out[4]) < 0:  # 0 allowed: the built-in Povirk–Needleman point reports 0 for a step it need not integrate
+        raise ValueError(f"{where}: {verb} returned nsub = {out[4]!r}: the number of sub-steps used, >= 0")
 
 
 def register_law(law: Law, *, replace: bool = False) -> Law:

@@ -20,6 +20,11 @@ the rows' key adds the rank.  A hit therefore gives the bits the same
 computation would give: a run with the cache is bit for bit a run without
 it.  A model with the experiment's bodies is not cached.
 
+Each entry holds its key and a SHA-256 of key and value, checked when it is
+read: an entry copied under another key, edited, or not a regular file (a
+FIFO is never opened for a blocking read) is a miss, named in one line on
+stderr, and is computed anew.
+
 Where: ``$FRICFEM_CACHE``, else ``$XDG_CACHE_HOME/fricfem``, else
 ``~/.cache/fricfem``; ``FRICFEM_CACHE=off`` (or empty) turns it off.  Writes
 are atomic (a temporary file, then ``os.replace``); an unreadable, corrupted
@@ -157,43 +162,94 @@ def _prune(folder: Path, limit: int = MAX_BYTES) -> None:
         total -= size
 
 
-def _rows_digest(ptr, cols, vals) -> np.ndarray:
-    return np.frombuffer(bytes.fromhex(_digest(ptr, cols, vals)), dtype=np.uint8)
+def _rows_digest(key: str, ptr, cols, vals) -> np.ndarray:
+    """The checksum of a rows entry: its key and its arrays."""
+    return np.frombuffer(bytes.fromhex(_digest(key, ptr, cols, vals)), dtype=np.uint8)
+
+
+def _lam_digest(key: str, lam_hex: str) -> str:
+    """The checksum of a λmax entry: its key and its value."""
+    return _digest("lam entry", key, lam_hex)
+
+
+class Forged(Exception):
+    """An entry that is not what its name says: another key inside, a checksum that
+    does not match its contents, or not a regular file (a miss, with a notice)."""
+
+
+def _open_regular(path: Path):
+    """``path`` opened for reading if it is a regular file (a FIFO or a device is never
+    opened for a blocking read: ``O_NONBLOCK``, then ``fstat``); raises :class:`Forged` if not."""
+    import stat
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise Forged("not a regular file")
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def _read(name: str, parse):
-    """``parse(path)`` of the entry ``name``, or None: no usable cache, or the entry
-    missing, truncated or corrupted (any error is a miss; the twin of :func:`_write`)."""
+    """``parse(file)`` of the entry ``name`` (opened only if a regular file), or None:
+    no usable cache, or the entry missing, truncated, corrupted or forged (any error is
+    a miss; the twin of :func:`_write`).  A forged entry (:class:`Forged`) is named in
+    one line on stderr: it is computed anew and replaced."""
     root = cache_dir()
     if root is None:
         return None
+    path = root / name
     try:
-        return parse(root / name)
+        with _open_regular(path) as fh:
+            return parse(fh)
+    except Forged as why:
+        _notice(path, str(why))
+        return None
     except Exception:  # missing, truncated, corrupted: a miss
         return None
+
+
+def _notice(path: Path, why: str) -> None:
+    import sys
+
+    try:
+        sys.stderr.write(f"fricfem: notice: set-up cache entry {path} ignored ({why}); computing it anew\n")
+    except (OSError, ValueError):
+        pass
 
 
 def load_rows(key: str, n_owned: int):
     """The cached rows ``(ptr, cols, vals)`` of ``key``, or None (missing or bad)."""
 
-    def parse(path):
-        with np.load(path, allow_pickle=False) as z:
+    def parse(fh):
+        with np.load(fh, allow_pickle=False) as z:
             ptr, cols, vals, check = z["ptr"], z["cols"], z["vals"], z["digest"]
+            stored = bytes(z["key"]).decode("ascii", "replace") if "key" in z.files else None
+        if stored != key:
+            raise Forged("it holds the rows of another model: the key inside differs from its name")
         ok = (ptr.dtype == np.int64 and cols.dtype == np.int64 and vals.dtype == np.float64
-              and ptr.shape == (n_owned + 1,) and vals.shape == (len(cols), 4) and int(ptr[-1]) == len(cols)
-              and np.array_equal(check, _rows_digest(ptr, cols, vals)))
-        return (ptr, cols, vals) if ok else None
+              and ptr.shape == (n_owned + 1,) and vals.shape == (len(cols), 4) and int(ptr[-1]) == len(cols))
+        if not ok:
+            return None
+        if not np.array_equal(check, _rows_digest(key, ptr, cols, vals)):
+            raise Forged("its checksum does not match its contents")
+        return ptr, cols, vals
 
     return _read(f"rows-{key}.npz", parse)
 
 
 def save_rows(key: str, rows: tuple) -> None:
-    """Keep this rank's rows under ``key`` (silently nothing without a usable cache)."""
+    """Keep this rank's rows under ``key`` (silently nothing without a usable cache),
+    with the key and a checksum of key and arrays inside."""
     root = cache_dir()
     if root is None:
         return
     ptr, cols, vals = rows
-    arrays = {"ptr": ptr, "cols": cols, "vals": vals, "digest": _rows_digest(ptr, cols, vals)}
+    arrays = {"ptr": ptr, "cols": cols, "vals": vals, "key": np.frombuffer(key.encode("ascii"), dtype=np.uint8),
+              "digest": _rows_digest(key, ptr, cols, vals)}
     _write(root / f"rows-{key}.npz", lambda fh: _savez_fast(fh, arrays))
 
 
@@ -220,10 +276,14 @@ def cached_rows(spec, material, num, comm, compute) -> tuple:
 def load_lam(key: str):
     """The cached λmax of ``key`` (a float), or None."""
 
-    def parse(path):
-        entry = json.loads(path.read_text())
-        if entry.get("format") != FORMAT or entry.get("key") != key:
+    def parse(fh):
+        entry = json.loads(fh.read().decode())
+        if entry.get("format") != FORMAT:
             return None
+        if entry.get("key") != key:
+            raise Forged("it holds the λmax of another model: the key inside differs from its name")
+        if entry.get("digest") != _lam_digest(key, entry["lam"]):
+            raise Forged("its checksum does not match its contents")
         lam = float.fromhex(entry["lam"])
         return lam if np.isfinite(lam) and lam > 0 else None
 
@@ -234,7 +294,8 @@ def save_lam(key: str, lam: float) -> None:
     root = cache_dir()
     if root is None:
         return
-    text = json.dumps({"format": FORMAT, "key": key, "lam": float(lam).hex(), "value": repr(float(lam))})
+    text = json.dumps({"format": FORMAT, "key": key, "lam": float(lam).hex(), "value": repr(float(lam)),
+                       "digest": _lam_digest(key, float(lam).hex())})
     _write(root / f"lam-{key}.json", lambda fh: fh.write(text.encode()))
 
 

@@ -225,8 +225,14 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs, state_Ts0=None) -> Points:
     params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
     rows, index = np.unique(params, axis=0, return_inverse=True)
     state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
-    for q in range(n):  # once, at set-up
-        state[q] = storage(law, law.initial_state(params[q], Tn0[q], Tss[q]))
+    from ..friction import BUILT_IN, initial_state
+
+    if law.name in BUILT_IN:
+        for q in range(n):  # once, at set-up
+            state[q] = storage(law, law.initial_state(params[q], Tn0[q], Tss[q]))
+    else:  # a user's law: each call checked (finite, its size), a failure named with the law and the point
+        for q in range(n):
+            state[q] = storage(law, initial_state(law, params[q], Tn0[q], Tss[q]))
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
         Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state,
