@@ -142,6 +142,46 @@ def _show(args) -> int:
     return 0
 
 
+def _run_dirs(*paths) -> None:
+    """Refuse, on every rank alike, a path that is not a run directory (rank 0 then does the reading)."""
+    from pathlib import Path
+
+    from .scene import SceneError
+
+    for path in paths:
+        if not (Path(path) / "interface.h5").is_file():
+            raise SceneError(f"{path}: not a run directory (no interface.h5)")
+
+
+def _export(args) -> int:
+    from .output.export import export
+
+    _given(args, "rundir", "--out")
+    _run_dirs(args.rundir)
+    if _rank() != 0:
+        return 0
+    for path in export(args.rundir, args.format, args.out, args.author or ""):
+        print(path)
+    return 0
+
+
+def _compare(args) -> int:
+    from .analysis import compare
+
+    _given(args, "run_a", "run_b")
+    _run_dirs(args.run_a, args.run_b)
+    if _rank() != 0:
+        return 0
+    result = compare.compare(args.run_a, args.run_b)
+    if args.json:
+        from .output.record import jsonable
+
+        print(json.dumps(jsonable(result), indent=2))
+    else:
+        print(compare.text(result))
+    return 0
+
+
 def _check_text(scene, est, ranks: int = 1) -> str:
     """What ``fricfem run --check`` prints: the scene is valid, its size and cost against the budget."""
     from .scene import cost
@@ -287,6 +327,20 @@ def main(argv=None) -> int:
     p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
     p.add_argument("--out", help="figure directory (default RUNDIR/plots)")
     p.set_defaults(func=_plot)
+    p = sub.add_parser("export", help="station time series of a run: SCEC code-verification ASCII (one file "
+                                      "per station) or CSV")
+    p.add_argument("rundir")
+    p.add_argument("--format", choices=("scec", "csv"), default="scec",
+                   help="scec: <station>.dat, stresses in MPa; csv: stations.csv, SI (default scec)")
+    p.add_argument("--out", help="folder for the files (default RUNDIR/export/<format>)")
+    p.add_argument("--author", help="the author line of the SCEC header")
+    p.set_defaults(func=_export)
+    p = sub.add_parser("compare", help="two runs of one problem: one line per station (rupture time, final slip, "
+                                       "peak slip rate, slip-rate L2) and the tip speed; B is the reference")
+    p.add_argument("run_a")
+    p.add_argument("run_b")
+    p.add_argument("--json", action="store_true", help="the comparison as JSON (SI units)")
+    p.set_defaults(func=_compare)
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "sweep":  # the sweep parses its own arguments
         return _sweep(argv[1:])
