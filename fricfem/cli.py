@@ -253,6 +253,24 @@ def _plot(args) -> int:
             if not (math.isfinite(t) and t >= 0):
                 raise SceneError(f"--times {args.times!r}: {item.strip()!r} is not a time in µs >= 0; expected "
                                  f"comma-separated numbers, e.g. 22,32")
+    from pathlib import Path
+
+    from .plot import modemap as plot_modemap
+
+    if plot_modemap.is_sweep(args.rundir):  # a sweep directory: its mode map(s), or why there is none yet
+        if args.times is not None:
+            raise SceneError(f"--times {args.times!r}: not used on a sweep directory ({args.rundir} holds a mode map)")
+        plot_modemap.sweep_maps(args.rundir)  # no map yet: the same error on every rank
+        if _rank() != 0:
+            return 0
+        for path in plot_modemap.from_sweep(args.rundir, args.out):
+            print(path)
+        return 0
+    found = [f for f in ("interface.h5", "summary.json", "fields.xdmf", ".fricfem-manifest.json")
+             if (Path(args.rundir) / f).exists()]
+    if Path(args.rundir).is_dir() and not found:
+        raise SceneError(f"{args.rundir}: neither a run directory (no interface.h5, summary.json or fields.xdmf) "
+                         f"nor a sweep directory (no modemap.json or points/): nothing to plot")
     if _rank() != 0:
         return 0
     from .plot import run as plot_run

@@ -176,3 +176,97 @@ def test_compare_names_a_directory_that_is_not_a_run(runs, tmp_path, capsys):
     d = _own(tmp_path)
     assert cli.main(["compare", str(a), str(d)]) == 2
     assert f"{d}: not a run directory" in capsys.readouterr().err or MPI.COMM_WORLD.rank  # rank 0 prints
+
+
+# --- fricfem plot on a sweep directory, and the mode map's typesetting
+
+
+def _sweep_dir(d: Path, labels, conf, title="povirk_needleman law · V_imp and Σ0\nC_n = 0.3, C_s = 0.1 MPa/µm"):
+    import json
+
+    s, v = [2.0, 10.0, 30.0], [2.0, 10.0, 40.0]
+    doc = {"title": title, "grid": {"sigma0_MPa": s, "v_imp_m_s": v},
+           "labels": {"values": labels}, "confidence": {"values": conf}, "points": []}
+    (d / "points").mkdir(parents=True, exist_ok=True)
+    (d / "modemap.json").write_text(json.dumps(doc))
+    return s, v
+
+
+LABELS = [["crack-like", "crack-like", "pulse"], ["none", "crack-like", "mixed"], ["none", "none", "pulse"]]
+CONF = [[1.0, 0.9, 0.5], [1.0, 0.61, 0.75], [1.0, 1.0, 1.0]]
+
+
+def test_plot_on_a_sweep_directory_draws_its_map_or_says_why_not(tmp_path, capsys, monkeypatch):
+    """A sweep directory's map is drawn from its modemap.json: each point's marker where the JSON
+    puts it, in its label's style; a sweep with no map yet, or a directory that is neither a run nor
+    a sweep, is one error line and status 2 (it used to print three 'skipped' lines and exit 0)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from fricfem.plot import modemap as pm
+
+    d = _own(tmp_path)
+    sweep = d / "sweep"
+    sweep.mkdir()
+    s, v = _sweep_dir(sweep, LABELS, CONF)
+    drawn = {}
+    real = pm.figure
+
+    def spy(maps, path, note=None, suptitle=None):
+        import matplotlib.pyplot as plt
+
+        for title, panel in maps.items():
+            fig, ax = plt.subplots()
+            pm.draw(ax, panel[0], panel[1], panel[2], title, *panel[3:5])
+            drawn[title] = ax
+        real(maps, path, note=note, suptitle=suptitle)
+
+    monkeypatch.setattr(pm, "figure", spy)
+    assert cli.main(["plot", str(sweep)]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        assert capsys.readouterr().out.split() == [str(sweep / "plots" / "modemap.png")]
+        assert (sweep / "plots" / "modemap.png").stat().st_size > 10_000
+        (ax,) = drawn.values()
+        where = {}
+        for coll in ax.collections:
+            label = coll.get_label()
+            for x, y in coll.get_offsets():
+                where[(round(float(x), 6), round(float(y), 6))] = label
+        for i, si in enumerate(s):
+            for j, vj in enumerate(v):
+                assert (si, vj) in where, f"no marker at Σ0 = {si}, V = {vj}"
+                if CONF[i][j] >= pm.LOW_CONFIDENCE:  # filled markers carry the label's legend name
+                    assert where[(si, vj)] == pm.MARKERS[LABELS[i][j]]["label"]
+    empty = d / "stopped"
+    (empty / "points").mkdir(parents=True)
+    assert cli.main(["plot", str(empty)]) == 2
+    (d / "other").mkdir()
+    assert cli.main(["plot", str(d / "other")]) == 2
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        assert "mode map is not written yet" in err and "nothing to plot" in err
+    assert not (empty / "plots").exists() and not (d / "other" / "plots").exists()
+
+
+def test_modemap_labels_are_subscripts_and_confidences_readable():
+    """Axis labels and titles set V_imp, Σ0, C_n, C_s as subscripts; every confidence below 1 is
+    printed under its point, as the data's value to two places, at a readable size."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from fricfem.plot import modemap as pm
+
+    s, v = [2.0, 10.0, 30.0], [2.0, 10.0, 40.0]
+    fig, ax = plt.subplots()
+    pm.draw(ax, s, v, LABELS, "law · C_n = 0.3, C_s = 0.1 MPa/µm, V_imp ≤ 40", CONF)
+    assert ax.get_xlabel() == r"$\Sigma_0$ [MPa]" and ax.get_ylabel() == r"$V_\mathrm{imp}$ [m/s]"
+    assert "$C_n$" in ax.get_title() and "$C_s$" in ax.get_title() and r"$V_\mathrm{imp}$" in ax.get_title()
+    notes = {(round(t.xy[0], 6), round(t.xy[1], 6)): t for t in ax.texts}
+    expected = {(si, vj): CONF[i][j] for i, si in enumerate(s) for j, vj in enumerate(v) if CONF[i][j] < 1}
+    assert set(notes) == set(expected)
+    for xy, c in expected.items():
+        assert notes[xy].get_text() == f"{c:.2f}" and notes[xy].get_fontsize() >= 8
+    fig.canvas.draw()  # the mathtext parses
+    plt.close(fig)

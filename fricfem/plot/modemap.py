@@ -36,6 +36,20 @@ CONFIDENCE_SHOWN = {True: f"(written under the marker\nwhen < 1; open when < {LO
                     False: f"(computed points ringed\nwhen < {LOW_CONFIDENCE:.2f})"}
 
 
+CONFIDENCE_FONTSIZE = 8  # pt: the confidence under each uncertain point (sparse maps)
+_SYMBOLS = (("V_imp", r"$V_\mathrm{imp}$"), ("Σ0", r"$\Sigma_0$"), ("C_n", "$C_n$"), ("C_s", "$C_s$"),
+            ("c_l", "$c_l$"), ("c_s", "$c_s$"), ("c_R", "$c_R$"))
+
+
+def math_text(text: str) -> str:
+    """``text`` with the raw symbols V_imp, Σ0, C_n, C_s, c_l, c_s, c_R set as subscripts (mathtext)."""
+    if "$" in text:  # already typeset
+        return text
+    for raw, tex in _SYMBOLS:
+        text = text.replace(raw, tex)
+    return text
+
+
 def _style(label):
     return MARKERS[label if label in MARKERS else None]
 
@@ -63,7 +77,7 @@ def _markers(ax, sigma0, v_imp, labels, conf) -> None:
             c = conf[i][j]
             if c is not None and c < 1.0:
                 ax.annotate(f"{c:.2f}", (s, v), xytext=(0, -11), textcoords="offset points", ha="center",
-                            va="top", fontsize=6, color="0.25", zorder=4)
+                            va="top", fontsize=CONFIDENCE_FONTSIZE, color="0.15", zorder=4)
 
 
 def _cells(ax, sigma0, v_imp, labels, conf, computed) -> list:
@@ -133,10 +147,10 @@ def draw(ax, sigma0, v_imp, labels, title: str = "", conf=None, computed=None) -
             axis.set_major_locator(FixedLocator(ticks))
             axis.set_ticklabels([tag(t) for t in ticks])
             axis.set_minor_locator(NullLocator())
-    ax.set_xlabel("Σ0 [MPa]")
-    ax.set_ylabel("V_imp [m/s]")
+    ax.set_xlabel(r"$\Sigma_0$ [MPa]")
+    ax.set_ylabel(r"$V_\mathrm{imp}$ [m/s]")
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(math_text(title), fontsize=9)
     return proxies
 
 
@@ -165,10 +179,70 @@ def figure(maps: dict, path: Path, note: str | None = None, suptitle: str | None
     fig.legend(handles.values(), handles.keys(), loc="upper left", bbox_to_anchor=(right, 0.92), fontsize=7,
                frameon=False)
     shown = "\n".join(CONFIDENCE_SHOWN[k] for k in sorted(styles, reverse=True))
-    fig.text(right + 0.005, 0.08, CONFIDENCE_NOTE + shown + (f"\n\n{note}" if note else ""), fontsize=6.5,
+    fig.text(right + 0.005, 0.08, CONFIDENCE_NOTE + shown + (f"\n\n{note}" if note else ""), fontsize=7.5,
              va="bottom", color="0.3")
     if suptitle:
-        fig.suptitle(suptitle, fontsize=10)
+        fig.suptitle(math_text(suptitle), fontsize=10)
     fig.tight_layout(rect=(0, 0, right, 0.95 if suptitle else 1))
     fig.savefig(path, dpi=130)
     plt.close(fig)
+
+
+SWEEP_MAPS = ("", "stiff_x10", "stiff_div10")  # fricfem.sweep's map folders: the scene's C and the variants
+
+
+def is_sweep(directory) -> bool:
+    """A directory ``fricfem sweep --out`` wrote (its map, or its points so far)."""
+    d = Path(directory)
+    return (d / "modemap.json").is_file() or ((d / "points").is_dir() and not (d / "interface.h5").exists())
+
+
+def sweep_maps(directory) -> dict:
+    """{map folder name ('' for the scene's C): modemap.json document} of a sweep directory; a
+    ValueError naming the directory when its map is not written yet (cheap: every rank may ask)."""
+    import json
+
+    d = Path(directory)
+    docs = {}
+    for name in SWEEP_MAPS:
+        path = d / name / "modemap.json" if name else d / "modemap.json"
+        if path.is_file():
+            try:
+                docs[name] = json.loads(path.read_text())
+            except (OSError, ValueError) as err:
+                raise ValueError(f"{path}: not readable as a mode map ({err})") from None
+    if "" not in docs:
+        done = len([p for p in (d / "points").iterdir() if (p / "summary.json").is_file()]) \
+            if (d / "points").is_dir() else 0
+        raise ValueError(f"{d}: a sweep directory whose mode map is not written yet ({done} point(s) with a "
+                         f"summary); the same `fricfem sweep ... --out {d}` resumes it and writes modemap.json")
+    return docs
+
+
+def from_sweep(directory, out=None) -> list:
+    """Redraw the mode map(s) of a sweep directory from its ``modemap.json`` files into ``out``
+    (default DIR/plots): ``modemap.png`` per map (``<variant>_modemap.png`` for the stiffness
+    variants) and, with variants, ``modemap_variants.png``.  A sweep whose map is not written
+    yet (still running, or stopped) is a ValueError saying so."""
+    d = Path(directory)
+    docs = sweep_maps(d)
+    out = Path(out) if out is not None else d / "plots"
+    out.mkdir(parents=True, exist_ok=True)
+    paths, panels = [], {}
+    for name, doc in docs.items():
+        s, v = doc["grid"]["sigma0_MPa"], doc["grid"]["v_imp_m_s"]
+        panel = (s, v, doc["labels"]["values"], (doc.get("confidence") or {}).get("values"),
+                 (doc.get("adaptive") or {}).get("computed"))
+        path = out / (f"{name}_modemap.png" if name else "modemap.png")
+        figure({doc.get("title", "mode map"): panel}, path, note=doc.get("note"))
+        paths.append(path)
+        head = "C_n, C_s of the scene" if not name else name.replace("stiff_x", "C_n, C_s × ").replace(
+            "stiff_div", "C_n, C_s ÷ ")
+        if "Cn_Pa_m" in doc and "Cs_Pa_m" in doc:
+            head += f"\n(C_n = {doc['Cn_Pa_m'] / 1e12:g}, C_s = {doc['Cs_Pa_m'] / 1e12:g} MPa/µm)"
+        panels[head] = panel
+    if len(docs) > 1:
+        path = out / "modemap_variants.png"
+        figure(panels, path, suptitle=docs[""].get("title", "").split("\n")[0] or None)
+        paths.append(path)
+    return paths
