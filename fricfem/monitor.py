@@ -65,8 +65,9 @@ _LAW = {11: "a negative slip rate (the contract: slip rate >= 0)",
         14: "it wrote into its parameter array p (read-only by the contract)",
         15: "its work does not balance: interface work != stored elastic + dissipated energy"}
 
-#: the relative bound of a user law's interface budget (:class:`LawWatch`): the built-in laws, run as user
-#: laws, close it to ~2e-4 (their sub-steps' quadrature of the work against the step's trapezoid)
+#: the relative bound of a user law's interface budget (:class:`LawWatch`), broken at two energy steps in a
+#: row: the built-in laws run as user laws close it to 6e-17 (slip weakening, Coulomb) and ~2e-4 (rate and
+#: state aging: its sub-steps' quadrature of the work against the step's trapezoid) once past their first steps
 LAW_BUDGET_TOL = 0.02
 
 
@@ -82,8 +83,9 @@ class LawWatch:
     W the work the bulk did on the interface (booked against the initial
     tractions), E_el the energy the interface springs store, D the work the law
     booked as dissipated and s the signed slip (tracked here), within
-    :data:`LAW_BUDGET_TOL` of Σ w (|W| + E_el + |D| + |T_s0 s|): a law that slips but books
-    no work, or books work it did not do, breaks it.  :meth:`code` returns 0 or a
+    :data:`LAW_BUDGET_TOL` of Σ w (|W| + E_el + |D| + |T_s0 s|), at two energy
+    steps in a row: a law that slips but books no work, or books work it did not
+    do, breaks it.  :meth:`code` returns 0 or a
     code of :data:`_LAW`.  Built-in laws are not watched (the suite checks them)."""
 
     def __init__(self, interface):
@@ -94,6 +96,7 @@ class LawWatch:
         self.d_last = self.p.dissipated.copy()
         self.slip_last = self.p.slip.copy()
         self.signed = np.zeros_like(self.p.slip)
+        self.breaches = 0  # energy steps in a row whose budget broke the bound
 
     def code(self, energy_step: bool) -> int:
         p = self.p
@@ -109,12 +112,17 @@ class LawWatch:
             return 13
         if not np.array_equal(p.param_rows, self.params0):
             return 14
-        if energy_step and self.budget_error() > LAW_BUDGET_TOL:
-            return 15
+        if energy_step:
+            # two energy steps in a row: the first steps of a law that always slides (rate and state) are a
+            # transient of its own quadrature (measured 3.4 % at the first check, then 1e-3, then ~2e-4)
+            self.breaches = self.breaches + 1 if self.budget_error() > LAW_BUDGET_TOL else 0
+            if self.breaches >= 2:
+                return 15
         return 0
 
     def budget_error(self) -> float:
-        """|W − E_el − D + Σ w T_s0 s| / Σ w (|W| + E_el + |D| + |T_s0 s|) over this rank's points (0: nothing yet)."""
+        """|W − E_el − D + Σ w T_s0 s| / Σ w (|W| + E_el + |D| + |T_s0 s|) over this rank's
+        points (0: nothing yet)."""
         p, w = self.p, self.wq
         if self.rigid:
             elastic = np.zeros_like(p.work)

@@ -406,7 +406,13 @@ def _finish(scene, out, comm, summary, state, rec, writer, monitor, stop, every,
     if writer is not None:
         writer.close()
     if monitor.gauges is not None:
-        monitor.gauges.close()
+        try:
+            monitor.gauges.close()
+        except OSError as err:  # as interface.h5 below: the laid-out file stays, its NaN rows not computed
+            summary["gauges_file"] = (f"{GAUGES_FILE} kept as laid out (rows past the run's end are NaN), not "
+                                      f"compacted: {err.filename}: {err.strerror}")
+            if comm.rank == 0:
+                sys.stderr.write(f"fricfem: warning: {summary['gauges_file']}\n")
     summary.update(
         steps=state.n, t_s=state.t, complete=stop not in ("signal", "watchdog") and monitor.diverged is None,
         interrupted=stop == "signal", **({"diverged": monitor.diverged} if monitor.diverged else {}),
