@@ -12,6 +12,8 @@ from numba.core.caching import NullCache
 
 from fricfem.friction import LAWS, defaults, get_law, pack, validate
 from fricfem.friction import povirk_needleman as pn
+from fricfem.friction import povirk_needleman_equations as pn_equations
+from fricfem.friction import povirk_needleman_integrator as pn_integrator
 from fricfem.friction import povirk_needleman_rate_tangent as rt
 from fricfem.friction import slip_weakening as sw
 from fricfem.friction.driver import drive_jump_rate, drive_slip_rate, ramp_jump, step_rates
@@ -72,7 +74,7 @@ def test_table1_defaults():
     assert s0 == pytest.approx([20e-6 / (10 * 26.0), 7 * MPa, 3 * MPa])
 
 
-@pytest.mark.parametrize("module", [pn, sw])
+@pytest.mark.parametrize("module", [pn_equations, pn_integrator, sw])
 def test_kernels_cached_and_not_fastmath(module):
     """Every numba function of a law is compiled with cache=True, without fastmath."""
     kernels = [f for f in vars(module).values() if isinstance(f, numba.core.registry.CPUDispatcher)

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 
+from .. import kernels  # noqa: F401  (numba's disk cache checked before a law compiles: fricfem.kernels.cache)
 from .base import Law, Param, defaults, frictional_work, pack, param_names, sign, storage, validate
 from . import povirk_needleman, povirk_needleman_rate_tangent, rate_state_aging, rate_state_slip, slip_weakening, stuck
 

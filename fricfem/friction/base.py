@@ -2,8 +2,10 @@
 
 A law is a :class:`Law` record: its parameters (with units and allowed ranges),
 the names of its state variables, and numba-compiled point functions.  The
-interface kernel is specialised per law by receiving ``law.advance`` (a numba
-dispatcher), so there is no per-point dispatch on the law's kind.
+interface kernel is specialised per law: a copy of it calls ``law.advance``
+(a numba dispatcher) by name, so there is no per-point dispatch on the law's
+kind, and numba caches each law's copy on disk
+(:func:`fricfem.kernels.interface.specialise`).
 
 ``advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt) -> (Ts1, slip_rate, dslip, dwork, nsub)``
     Integrate one interface point over one bulk step ``dt`` [s].
@@ -82,9 +84,11 @@ Optional verbs (``None`` when a law does not provide them):
     step and is scored against scipy (tests/test_point_reference.py,
     tests/test_rate_state.py).
 
-``kernel``, ``rigid_kernel``: the law's specialised interface kernels, elastic
-    and rigid (set by the law module, see :mod:`fricfem.kernels.interface`;
-    None: one is specialised when first needed).
+``kernel``, ``rigid_kernel``: interface kernels of the law's own, elastic and
+    rigid, with the signatures of :func:`fricfem.kernels.interface.kernel_for`
+    and :func:`~fricfem.kernels.interface.rigid_kernel_for` (None, as for every
+    shipped law: the generic kernel is specialised for ``advance``/``rigid``
+    when first needed and cached on disk).
 
 ``ADVANCE_TYPE`` and ``SLIDE_TYPE`` are the numba function types of ``advance``
 and ``slide``: a numba function declared with them is compiled (and cached)
@@ -136,8 +140,8 @@ class Law(NamedTuple):
     memo: int = 0  # storage the law keeps after its state for itself (NaN at first), see ``storage``
     rates: Callable = None  # python (p, state, Ts, Tn) -> (v, dstate_dt), optional, see module docstring
     rigid: Callable = None  # numba (p, s, T_stick, Z, Tn0, Tn1, dt) -> (Ts, v, dslip, dwork, nsub), optional
-    kernel: Callable = None  # the law's specialised interface kernel (set by the law module; None: the generic kernel)
-    rigid_kernel: Callable = None  # its rigid (split-node) interface kernel, when it has ``rigid`` (law module)
+    kernel: Callable = None  # an interface kernel of the law's own (None: the generic one specialised for ``advance``)
+    rigid_kernel: Callable = None  # its rigid (split-node) interface kernel (None: specialised for ``rigid``)
 
 
 def storage(law: Law, state) -> np.ndarray:

@@ -12,7 +12,6 @@ frictionless contact (``advance``: T_s = 0, all of the jump rate is slip).
 import numba
 import numpy as np
 
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 
 
@@ -40,18 +39,6 @@ def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
     return 0.0, v, v * dt, 0.0, 1
 
 
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
-
-
 LAW = Law(
     name="frictionless_contact",
     doc="unilateral frictionless contact: compression only, zero shear traction",
@@ -61,6 +48,4 @@ LAW = Law(
     steady_mu=steady_mu,
     initial_state=initial_state,
     rigid=rigid,
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

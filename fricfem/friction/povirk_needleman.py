@@ -11,26 +11,11 @@ continuous rates), fricfem's integrator over a bulk step
     friction.law = "povirk_needleman"
 """
 
-import numba
-
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 from .povirk_needleman_equations import (  # noqa: F401  (the law's names, in one place)
     B, C, D, GAMMA, L0, L1, L2, M, MU_D, MU_S, N_STORAGE, P, PARAMS, STATE, SUB_STIFF, SUB_TOL, THETA0_INIT, V0, V1,
     _g_plain, g_and_dg, initial_state, rates, slide, slip_rate, steady_mu, steady_state, strength_factor)
 from .povirk_needleman_integrator import MAX_SUBSTEPS, advance, rigid  # noqa: F401
-
-
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
 
 
 LAW = Law(
@@ -46,6 +31,4 @@ LAW = Law(
     memo=N_STORAGE - len(STATE),
     rates=rates,
     rigid=rigid,
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

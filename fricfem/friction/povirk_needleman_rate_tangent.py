@@ -18,7 +18,6 @@ only ``gamma`` (the rate-tangent parameter γ) is read.
 import numba
 
 from . import povirk_needleman_equations as pn
-from ..kernels.interface import specialise
 from .base import Law, frictional_work, sign
 from .povirk_needleman_equations import B, C, D, GAMMA, L0, L1, L2, M, V0, g_and_dg, slip_rate
 
@@ -66,13 +65,6 @@ def rate_tangent_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
     return Ts1, slip_rate(p, abs(Ts1), s[0], s[1], s[2]), dslip, frictional_work(Ts, Ts1, dslip), 1
 
 
-
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(rate_tangent_advance, *args)
-
-
 LAW = Law(
     name="povirk_needleman_rate_tangent",
     doc="the Povirk–Needleman law with the paper's plain rate-tangent update, one per bulk step "
@@ -83,5 +75,4 @@ LAW = Law(
     steady_mu=pn.steady_mu,
     initial_state=pn.initial_state,
     slide=pn.slide,
-    kernel=kernel,
 )

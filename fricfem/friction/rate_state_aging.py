@@ -20,7 +20,6 @@ T_s ≠ 0.  Shared numerics and the integrators: :mod:`.rate_state`.
 import numba
 
 from . import rate_state as rs
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 
 PARAMS = rs.COMMON_PARAMS
@@ -63,18 +62,6 @@ def rates(p, state, Ts, Tn):
     return rs.rates(KIND, p, state, Ts, Tn)
 
 
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
-
-
 LAW = Law(
     name="rate_state_aging",
     doc="regularized rate-and-state friction, aging (Dieterich) state law (SCEC TPV102)",
@@ -86,6 +73,4 @@ LAW = Law(
     slide=slide,
     rates=rates,
     rigid=rigid,
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

@@ -23,7 +23,6 @@ integrators: :mod:`.rate_state`.
 import numba
 
 from . import rate_state as rs
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law, Param
 
 PARAMS = rs.COMMON_PARAMS + (
@@ -70,18 +69,6 @@ def rates(p, state, Ts, Tn):
     return rs.rates(KIND, p, state, Ts, Tn)
 
 
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
-
-
 LAW = Law(
     name="rate_state_slip",
     doc="regularized rate-and-state friction, slip (Ruina) state law (SCEC TPV103/104 form)",
@@ -93,6 +80,4 @@ LAW = Law(
     slide=slide,
     rates=rates,
     rigid=rigid,
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

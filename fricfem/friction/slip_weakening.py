@@ -18,7 +18,6 @@ T_n = T_n(t + dt), if |T*| > μ(δ) T_n the slip dδ solves
 import numba
 import numpy as np
 
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law, Param, frictional_work, sign
 
 MU_S, MU_D, DC = range(3)
@@ -105,18 +104,6 @@ def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
     return sign(T_stick) * strength, v, ds, strength * ds, 1
 
 
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
-
-
 LAW = Law(
     name="slip_weakening",
     doc="linear slip-weakening Coulomb friction on the elastic interface",
@@ -127,6 +114,4 @@ LAW = Law(
     initial_state=initial_state,
     slide=slide,
     rigid=rigid,  # no ``rates``: rate independent; exact references in .reference
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

@@ -7,7 +7,6 @@ for wave-propagation and energy tests of the bulk/interface coupling.
 import numba
 import numpy as np
 
-from ..kernels.interface import specialise, specialise_rigid
 from .base import Law
 
 
@@ -31,18 +30,6 @@ def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
     return T_stick, 0.0, 0.0, 0.0, 1
 
 
-@numba.njit(cache=True, _nrt=False)
-def kernel(*args):
-    """The interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise(advance, *args)
-
-
-@numba.njit(cache=True, _nrt=False)
-def rigid_kernel(*args):
-    """The rigid-interface kernel specialised for this law (:mod:`fricfem.kernels.interface`)."""
-    specialise_rigid(rigid, *args)
-
-
 LAW = Law(
     name="stuck",
     doc="elastic interface that never slides (Ṫ_s = C_s Δu̇_s)",
@@ -52,6 +39,4 @@ LAW = Law(
     steady_mu=steady_mu,
     initial_state=initial_state,
     rigid=rigid,
-    kernel=kernel,
-    rigid_kernel=rigid_kernel,
 )

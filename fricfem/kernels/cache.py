@@ -1,9 +1,9 @@
 """Keeping numba's on-disk cache honest.
 
 numba keys a cached function on its own source file only.  fricfem's kernels
-inline code from other modules (a law's kernel inlines
-:func:`fricfem.kernels.interface.advance_points` and the law's ``advance``,
-which calls its equations module), so after an edit of one of those a cached
+inline code from other modules (a law's kernel is
+:func:`fricfem.kernels.interface.advance_points` with the law's ``advance``
+inlined, which calls its equations module), so after an edit of one of those a cached
 kernel would load the old code without a word.  :func:`ensure_fresh` hashes
 every module that numba compiles (``fricfem/kernels``, ``fricfem/friction``)
 and, when the hash differs from the one stamped beside the cache, removes
@@ -35,8 +35,11 @@ def _sources_hash() -> str:
 def _cache_dirs() -> list:
     """Where numba keeps fricfem's cache: NUMBA_CACHE_DIR, else each package's __pycache__."""
     base = os.environ.get("NUMBA_CACHE_DIR")
-    if base:  # numba mirrors the source folder's absolute path under it
-        return [Path(base) / str(_ROOT / d).lstrip(os.sep) for d in _DIRS]
+    if base:  # numba's folder for a source folder: its name and a hash of its absolute path
+        from numba.core.caching import _CacheLocator
+
+        return [Path(base) / _CacheLocator.get_suitable_cache_subpath(str(_ROOT / d / "__init__.py"))
+                for d in _DIRS]
     return [_ROOT / d / "__pycache__" for d in _DIRS]
 
 

@@ -18,12 +18,27 @@ Arrays and scalars only, bundled as plain tuples unpacked on the first line:
             (:class:`fricfem.model.interface.Points`, same order)
 
 A friction law enters through its ``advance`` (:mod:`fricfem.friction.base`).
-Each law compiles its own kernel (:func:`specialise`), so the call to
-``advance`` is resolved and inlined at compile time: no per-point dispatch.
+Each law gets its own copy of the kernel (:func:`kernel_for`), in which
+``law_advance`` (``law_rigid`` in the rigid kernel) is a global name bound to
+the law's function, so the call is resolved and inlined at compile time (no
+per-point dispatch) and numba caches the copy on disk like any module-level
+function.  (Passing the law's dispatcher as an argument instead made numba
+embed the dispatcher's address in the kernel, a "dynamic global" it will not
+cache: every process compiled the kernel again.)
 """
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+import re
+import types
+import warnings
 
 import numba
 import numpy as np
+from numba.core.errors import NumbaWarning
 
 
 @numba.njit(inline="always", cache=True)
@@ -40,14 +55,15 @@ def _store_segment(fw, fa, fb, fua, fub, ax, ay, bx, by):
     fw[fub + 1] = -by
 
 
-def advance_points(advance, w, fw, geom, const, pts, dt):
+def advance_points(w, fw, geom, const, pts, dt):
     """One bulk step ``dt`` [s] of every interface point on this rank.
 
     ``w`` holds the gathered displacements at the end of the step; the jumps at
     the start of the step are in ``pts``.  Writes the *negative* nodal
     interface forces into ``fw``, each segment into its own slots (they are
     added to ``K u`` by the nodes' owners).  One piece: the
-    loop over points is the kernel's whole work, and the law's ``advance`` is
+    loop over points is the kernel's whole work, and the law's ``advance``
+    (the global ``law_advance`` of the law's copy, :func:`kernel_for`) is
     inlined into it.
     """
     seg, shape, wq = geom
@@ -79,8 +95,8 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
                 is_open[q] = 1
                 nsub[q] = 0
             else:
-                ts_new, sr, dsl, dwk, ns = advance(param_rows[param_index[q]], state[q], ts_old, tn_old,
-                                                   tn_new, vs, p_Cs[q], dt)
+                ts_new, sr, dsl, dwk, ns = law_advance(param_rows[param_index[q]], state[q], ts_old,  # noqa: F821
+                                                       tn_old, tn_new, vs, p_Cs[q], dt)
                 slip[q] += dsl
                 dissipated[q] += dwk
                 is_open[q] = 0
@@ -107,24 +123,11 @@ def advance_points(advance, w, fw, geom, const, pts, dt):
         _store_segment(fw, seg[e, 4], seg[e, 5], seg[e, 6], seg[e, 7], ax, ay, bx, by)
 
 
-#: ``advance_points`` compiled per ``advance`` it is called with, without
-#: numba's reference counting (the kernel allocates nothing; the point rows it
-#: hands to the law are plain views).  A law module closes over it with its own
-#: ``advance`` in a module-level function, which numba caches on disk:
-#:
-#:     @numba.njit(cache=True, _nrt=False)
-#:     def kernel(*args):
-#:         specialise(advance, *args)
-#:
-#: (numba caches module-level functions, not ones a factory makes.)
-specialise = numba.njit(_nrt=False)(advance_points)
-
-
 # One piece (longer than the ~80 lines a function is kept to): per pair, the
 # trial velocities, the normal traction closing the gap, the law's shear and
 # the forces back share the pair's gathered values and masses in registers;
 # split into calls they would travel as tuples through the step's inner loop.
-def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
+def advance_pairs(wu, wv, wk, fw, pgeom, const, pts, dt):
     """One bulk step of every rigid (split-node) pair on this rank (Andrews
     1999; Day et al. 2005, traction at split nodes).
 
@@ -141,7 +144,8 @@ def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
         T_s = T_stick − Z V sgn(T_stick),  T_stick = T_s0 + Z Δṽ_s  (the law's ``rigid``)
 
     and the pair's jump rate over the step is Δṽ − ΔT/Z (shear) and
-    Δṽ_n + ΔT_n/Z (normal).  Writes the *negative* nodal forces (lower x, y,
+    Δṽ_n + ΔT_n/Z (normal); the shear is the law's ``rigid`` (the global
+    ``law_rigid`` of the law's copy, :func:`rigid_kernel_for`).  Writes the *negative* nodal forces (lower x, y,
     upper x, y) into ``fw`` and updates the point state ``pts`` as
     :func:`advance_points` does; the work of the bulk on the pair over the
     step that ended at t^n is the trapezoid of the tractions at its ends
@@ -190,8 +194,8 @@ def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
             is_open[k] = 0
             nsub[k] = 0
         else:
-            ts_new, sr, dsl, dwk, ns = rigid(param_rows[param_index[k]], state[k], p_Ts0[k] + Zs * dvs, Zs,
-                                             tn_old, tn_new, dt)
+            ts_new, sr, dsl, dwk, ns = law_rigid(param_rows[param_index[k]], state[k],  # noqa: F821
+                                                 p_Ts0[k] + Zs * dvs, Zs, tn_old, tn_new, dt)
             slip[k] += dsl
             dissipated[k] += dwk
             is_open[k] = 0
@@ -217,55 +221,104 @@ def advance_pairs(rigid, wu, wv, wk, fw, pgeom, const, pts, dt):
         fw[4 * k + 3] = fy
 
 
-#: ``advance_pairs`` compiled per law ``rigid`` it is called with (as
-#: :data:`specialise` for ``advance``); a law module closes over it:
-#:
-#:     @numba.njit(cache=True, _nrt=False)
-#:     def rigid_kernel(*args):
-#:         specialise_rigid(rigid, *args)
-specialise_rigid = numba.njit(_nrt=False)(advance_pairs)
+_kernels = {}  # (template, law function) -> the law's compiled copy, for this process
 
-_runtime = {}
+
+def kernel_for(law):
+    """The interface kernel of ``law``: ``kernel(w, fw, geom, const, pts, dt)``
+    (``law.kernel`` when the law gives one; else :func:`advance_points` with
+    the law's ``advance``, made once per process and cached on disk when
+    numba can, see :func:`specialise`)."""
+    if law.kernel is not None:
+        return law.kernel
+    return specialise(advance_points, "law_advance", law.advance)
 
 
 def rigid_kernel_for(law):
     """The rigid-interface kernel of ``law``: ``kernel(wu, wv, wk, fw, pgeom, const, pts, dt)``
-    (the law's own, or one specialised now for its ``rigid`` verb)."""
+    (``law.rigid_kernel``, else :func:`advance_pairs` with the law's ``rigid``)."""
     if law.rigid is None:
         raise ValueError(f"friction.law = {law.name!r}: no rigid-interface verb (interface.kind = 'rigid' "
                          "needs a law with ``rigid``)")
     if getattr(law, "rigid_kernel", None) is not None:
         return law.rigid_kernel
-    kernel = _runtime.get(("rigid", law.rigid))
+    return specialise(advance_pairs, "law_rigid", law.rigid)
+
+
+def specialise(template, name: str, fn):
+    """``template`` (a kernel body of this module) compiled with the global
+    ``name`` bound to the law's numba function ``fn``, without numba's
+    reference counting (the kernels allocate nothing).
+
+    The copy is a module-level function to numba (this file, the template's
+    line), named after the law function (:func:`cache_tag`), so numba caches it
+    on disk and loads it in the next process.  A function numba cannot key
+    safely (no source file, a closure) gets an uncached copy: compiled once
+    per process.  Either way one copy per ``fn`` and process."""
+    key = (template, fn)
+    kernel = _kernels.get(key)
     if kernel is None:
-        rigid = law.rigid
-
-        @numba.njit(_nrt=False)
-        def kernel(*args):
-            specialise_rigid(rigid, *args)
-
-        _runtime[("rigid", law.rigid)] = kernel
+        tag = cache_tag(fn)
+        scope = dict(template.__globals__)
+        scope[name] = fn
+        body = types.FunctionType(template.__code__, scope, template.__name__)
+        body.__module__ = template.__module__
+        body.__doc__ = template.__doc__
+        if tag is not None:
+            body.__qualname__ = f"{template.__qualname__}__{tag}"  # numba's cache file name
+        kernel = numba.njit(cache=tag is not None, _nrt=False)(body)
+        _kernels[key] = kernel
     return kernel
 
 
-def kernel_for(law):
-    """The interface kernel of ``law``: ``kernel(w, fw, geom, const, pts, dt)``.
+def cache_tag(fn):
+    """The name under which a law function's kernel is cached, or None: not cacheable.
 
-    The law's own kernel when its module defines one; otherwise (a law
-    registered at run time) one specialised now for its ``advance``, kept for
-    the rest of the process (compiled once, not cached on disk)."""
-    if law.kernel is not None:
-        return law.kernel
-    kernel = _runtime.get(law.advance)
-    if kernel is None:
-        advance = law.advance
+    fricfem's own laws: their module and name (:mod:`fricfem.kernels.cache`
+    clears the cache when any of fricfem's numba sources changes).  A user's
+    law: its module and name, and a hash of its source file and of the plain
+    values (numbers, strings, arrays) of the module globals it reads, so an
+    edited law or a changed constant gets a kernel of its own.  Not cacheable:
+    a function without a source file (typed at a prompt), a closure (what it
+    closes over is not in its file), not a numba function.  The law's other
+    numba functions in other files are not looked at (as numba's own cache):
+    a law that calls a helper from another file of its own should keep the
+    helper in the same file as ``advance``, or clear the cache when editing it.
+    """
+    py = getattr(fn, "py_func", None)
+    if py is None or py.__closure__:
+        return None
+    module = py.__module__ or ""
+    qual = re.sub(r"\W", "_", py.__qualname__)
+    if module.startswith("fricfem."):
+        return f"{module.rsplit('.', 1)[-1]}_{qual}"
+    try:
+        path = inspect.getsourcefile(py)
+        source = open(path, "rb").read() if path and os.path.isfile(path) else None
+    except (OSError, TypeError):
+        source = None
+    if source is None:
+        return None
+    h = hashlib.sha256(source)
+    h.update(py.__qualname__.encode())
+    for gname in sorted(set(py.__code__.co_names)):
+        value = py.__globals__.get(gname)
+        if isinstance(value, (bool, int, float, complex, str, bytes)):
+            h.update(f"{gname}={value!r};".encode())
+        elif isinstance(value, np.ndarray):
+            h.update(f"{gname}:{value.dtype}{value.shape}".encode())
+            h.update(np.ascontiguousarray(value).tobytes())
+    return f"{module.rsplit('.', 1)[-1]}_{qual}_{h.hexdigest()[:16]}"
 
-        @numba.njit(_nrt=False)
-        def kernel(*args):
-            specialise(advance, *args)
 
-        _runtime[law.advance] = kernel
-    return kernel
+def first_call(kernel, *args):
+    """Call ``kernel`` the first time (it compiles, or loads from numba's cache),
+    with numba's "Cannot cache compiled function" warning caught here: a law
+    numba will not cache still runs (compiled in each process), without
+    numba's coloured warning in the run's output."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Cannot cache compiled function", category=NumbaWarning)
+        kernel(*args)
 
 
 @numba.njit(cache=True)

@@ -7,15 +7,12 @@ numba loop :mod:`fricfem.kernels.interface`.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from mpi4py import MPI
-from numba.core.errors import NumbaExperimentalFeatureWarning
 from petsc4py import PETSc
 
 from ..kernels.cache import ensure_fresh
-from ..kernels.interface import kernel_for, rigid_kernel_for, spring_kernel
+from ..kernels.interface import first_call, kernel_for, rigid_kernel_for, spring_kernel
 
 
 
@@ -73,13 +70,8 @@ class Interface:
             w = self._gather(u)
         if self._compiled:
             self.kernel(w, g.force.array, self._geom, self._const, self._state, dt)
-        else:
-            with warnings.catch_warnings():
-                # numba types the law's ``advance`` handed to the shared kernel body as a
-                # first-class function and warns that the feature is experimental; it is
-                # resolved at compile time here (kernels.interface.specialise)
-                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-                self.kernel(w, g.force.array, self._geom, self._const, self._state, dt)
+        else:  # compiles or loads the law's kernel; numba's cache warning caught there
+            first_call(self.kernel, w, g.force.array, self._geom, self._const, self._state, dt)
             self._compiled = True
         self._send()
         return g.left.array_r, g.right.array_r
@@ -156,9 +148,7 @@ class RigidInterface:
         if self._compiled:
             self.kernel(*args)
         else:
-            with warnings.catch_warnings():  # see Interface.advance
-                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-                self.kernel(*args)
+            first_call(self.kernel, *args)  # see Interface.advance
             self._compiled = True
         g.to_left.scatter(g.force, g.left, insert, forward)
         return g.left.array_r, g.right.array_r
