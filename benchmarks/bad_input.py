@@ -271,6 +271,63 @@ def fs_cases(tmp: Path) -> list:
             for i, argv, needle in rows]
 
 
+def _tiny_disk(path: Path, free: int) -> bool:
+    """A 3 MB tmpfs at ``path`` (root only) filled until ``free`` bytes are left."""
+    path.mkdir(parents=True)
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(path)], capture_output=True).returncode:
+        return False
+    st = os.statvfs(path)
+    with open(path / "filler", "wb") as fh:
+        os.posix_fallocate(fh.fileno(), 0, st.f_bavail * st.f_frsize - free)
+    return True
+
+
+def fault_cases(tmp: Path) -> list:
+    """Faults around a run (issue 24): a nearly full disk (interface.h5's layout; its
+    end-of-run copy), set-up cache entries that are FIFOs or forged, a divergence with
+    the watchdog off.  (SIGINT, user laws and readers: tests/test_faults_run.py.)"""
+    f = tmp / "faults"
+    f.mkdir()
+    cases = []
+    for i, (label, free, needle) in enumerate((("a nearly full disk (40 kB free)", 40_000, "No space left on device"),
+                                               ("interface.h5 fits but not its end-of-run copy", 250_000,
+                                                "end-of-run copy"))):
+        if _tiny_disk(f / f"disk{i}", free):
+            cases.append({"category": "fault (run)", "id": label, "argv": ["run", "case1", *SHORT, "--out",
+                                                                             str(f / f"disk{i}" / "run")],
+                          "needle": needle, "accept": None})
+    warm = f / "cache"  # a set-up cache of SHORT's model, then copies of it made hostile
+    env = {**os.environ, "FRICFEM_CACHE": str(warm), "OMP_NUM_THREADS": "1"}
+    subprocess.run([str(FRICFEM), "run", "case1", *SHORT, "--out", str(f / "warm"), "--quiet"], env=env,
+                   capture_output=True, timeout=900, cwd=tmp)
+    fifo, forged = f / "cache_fifo", f / "cache_forged"
+    shutil.copytree(warm, fifo)
+    shutil.copytree(warm, forged)
+    for p in fifo.iterdir():  # every entry a FIFO nobody writes
+        p.unlink()
+        os.mkfifo(p)
+    for p in forged.glob("lam-*.json"):  # λmax × 0.6 under its own key
+        entry = json.loads(p.read_text())
+        entry["lam"] = (0.6 * float.fromhex(entry["lam"])).hex()
+        p.write_text(json.dumps(entry))
+    cases += [
+        {"category": "fault (run)", "id": "set-up cache entries are FIFOs", "argv": ["run", "case1", *SHORT],
+         "needle": "", "env": {"FRICFEM_CACHE": str(fifo)},
+         "accept": "an entry that is not a regular file is a miss (never opened for a blocking read), named on "
+                   "stderr, computed anew"},
+        {"category": "fault (run)", "id": "a forged set-up cache entry (λmax × 0.6)",
+         "argv": ["run", "case1", *SHORT],
+         "needle": "", "env": {"FRICFEM_CACHE": str(forged)},
+         "accept": "an entry whose checksum does not match its key and value is a miss, named on stderr, computed "
+                   "anew (the run's bits are those without the cache: tests/test_faults_run.py)"},
+        {"category": "fault (run)", "id": "watchdog.enabled = false, dt 1.3 × the stable step",
+         "argv": ["run", "case1", *SHORT, "--set", "time.end=30e-6", "--set", "time.dt=3.84e-7",
+                  "--set", "time.allow_unstable_dt=true", "--set", "watchdog.enabled=false"],
+         "needle": "the run diverged", "status": 1, "timeout": 900, "accept": None},
+    ]
+    return cases
+
+
 def file_cases(tmp: Path) -> list:
     """Scene files made in ``tmp``; each case runs ``fricfem run FILE``."""
     f = tmp / "files"
@@ -342,14 +399,14 @@ def run_case(case: dict, tmp: Path) -> dict:
     argv = list(case["argv"])
     if argv[0] == "run" and "--check" not in argv:
         argv += ["--out", str(out), "--overwrite", "--quiet"] if "--out" not in argv else []
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    env = {**os.environ, "OMP_NUM_THREADS": "1", **case.get("env", {})}
     for k in list(env):
         if k.startswith(("OMPI_COMM", "PMIX_", "PMI_")):
             env.pop(k)
     t0 = time.perf_counter()
     try:
-        res = subprocess.run([str(FRICFEM), *argv], capture_output=True, text=True, timeout=TIMEOUT, env=env,
-                             cwd=tmp, errors="replace")
+        res = subprocess.run([str(FRICFEM), *argv], capture_output=True, text=True, env=env, cwd=tmp,
+                             timeout=case.get("timeout", TIMEOUT), errors="replace")
         status, err = res.returncode, res.stderr
     except subprocess.TimeoutExpired as exc:
         status, err = "timeout", (exc.stderr or b"").decode(errors="replace") if isinstance(exc.stderr, bytes) \
@@ -364,6 +421,13 @@ def run_case(case: dict, tmp: Path) -> dict:
         why = "hang (timeout)"
     elif traceback:
         why = "traceback"
+    elif case.get("status") is not None:  # a run that must end, not complete, saying why (a fault, not a key)
+        if status != case["status"]:
+            why = f"exit {status}, not {case['status']}"
+        elif not any(case["needle"] in ln for ln in lines if ln.startswith("fricfem")):
+            why = f"no line names {case['needle']!r}"
+        else:
+            outcome = "clear"
     elif status == 2:
         stray = [ln for ln in lines if not (ln.startswith(("fricfem", "usage:", " ")) or ln in errors)]
         if case["accept"]:
@@ -497,14 +561,16 @@ def _write_json(path: Path, doc: dict) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", help="comma-separated categories prefixes (key, law, rule, cli, file, file system); "
-                                   "not written")
+    ap.add_argument("--only", help="comma-separated categories prefixes (key, law, rule, cli, file, file system, "
+                                   "fault); not written")
     ap.add_argument("--no-calibration", action="store_true")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="fricfem-bad-input-"))
     t0 = time.perf_counter()
     try:
         cases = key_cases() + rule_cases() + cli_cases(tmp) + file_cases(tmp) + fs_cases(tmp)
+        if not args.only or any("fault (run)".startswith(p) for p in args.only.split(",")):
+            cases += fault_cases(tmp)
         if args.only:
             cases = [c for c in cases if any(c["category"].startswith(p) for p in args.only.split(","))]
         results = []
@@ -526,6 +592,8 @@ def main(argv=None) -> int:
         return 0 if all(r["outcome"] != "other" for r in results) else 1
     finally:
         subprocess.run(["umount", "-l", str(tmp / "fs" / "ro")], capture_output=True)
+        for disk in (tmp / "faults").glob("disk*"):
+            subprocess.run(["umount", "-l", str(disk)], capture_output=True)
         shutil.rmtree(tmp, ignore_errors=True)
 
 
