@@ -117,6 +117,7 @@ def write_summary(path: Path) -> None:
         ],
         "mode": {"label": "crack-like", "evidence": {"stick_gaps": 0}},
         "speeds": {"c_l": C_L, "c_s": C_S, "c_R": C_R, "sqrt2_c_s": np.sqrt(2) * C_S},
+        "dt_s": DT,
     }
     path.write_text(json.dumps(summary))
 
@@ -337,3 +338,92 @@ def test_tip_speed_figure_draws_the_summary_speeds_at_their_times(run_plots, tmp
     assert np.allclose(curve.get_ydata(), np.clip(v_want, 0, ax_v.get_ylim()[1]), rtol=0, atol=0)
     assert curve.get_xdata()[-1] == pytest.approx(rec["v_tip_time_s"][-1] * 1e6)
     assert not np.array_equal(t_want, np.asarray(rec["time_s"][: len(v_want)]) * 1e6)  # the old bug would differ
+
+def _keep_figures(monkeypatch, *modules) -> dict:
+    """{file name: Figure} of every figure the given plot modules save."""
+    from fricfem.plot import common
+
+    figures = {}
+
+    def keep(fig, path, **kw):
+        figures[Path(path).name] = fig
+        return common.save(fig, path, **kw)
+
+    for module in modules:
+        monkeypatch.setattr(module, "save", keep)
+    return figures
+
+
+def _impact_lines(ax) -> list:
+    """The black dash-dot / dotted lines x1 = c_l t, c_s t drawn from the struck corner."""
+    return [ln for ln in ax.lines if ln.get_color() == "k" and ln.get_linestyle() in ("-.", ":")]
+
+
+def test_spacetime_x_axis_holds_the_sliding_and_impact_lines_only_with_an_impact(run_plots, tmp_path,
+                                                                                  monkeypatch):
+    """The space-time map's x1 axis runs from the struck edge to just past the furthest point that
+    ever slid (not to the plate's end), and the lines x1 = c_l t, c_s t are drawn only when the run
+    was struck: a rupture problem (V_imp = 0, no projectile) has none, nor does its tip figure."""
+    import shutil
+
+    from fricfem.plot import spacetime, tip
+
+    figures = _keep_figures(monkeypatch, spacetime, tip)
+    rundir, _ = run_plots
+    summary = rd.read_summary(rundir)
+    spacetime.spacetime(rundir, tmp_path / "struck.png", summary=summary, info=rd.run_info(rundir, summary=summary))
+    ax = figures["struck.png"].axes[0]
+    with rd.open_interface(rundir) as itf:
+        slid = itf.x1[np.any(itf.all("slip_rate") > 0, axis=0)]
+        plate = itf.x1[-1]
+    lo, hi = ax.get_xlim()
+    assert lo <= 0.0 and slid.max() * 1e3 <= hi <= (slid.max() + 0.1 * (slid.max() - slid.min())) * 1e3 + 3.0
+    assert hi < 0.9 * plate * 1e3  # the synthetic front stops at 60 mm of a 137 mm plate
+    assert len(_impact_lines(ax)) == 2
+    for ln, c in zip(_impact_lines(ax), (C_L, C_S)):  # x1 = c t [mm, µs]
+        xs, ts = ln.get_xdata(), ln.get_ydata()
+        assert np.allclose(xs[-1] / ts[-1], c * 1e-3, rtol=1e-12)
+
+    quiet = tmp_path / "rupture"
+    shutil.copytree(rundir, quiet)
+    with h5py.File(quiet / "interface.h5", "r+") as f:
+        f.attrs["v_imp"] = 0.0
+    with rd.open_interface(quiet) as itf:  # as `fricfem plot` reads it: interface.h5's attributes
+        info = rd.run_info(quiet, interface=itf, summary=summary)
+    assert info.v_imp == 0.0
+    spacetime.spacetime(quiet, tmp_path / "rupture.png", summary=summary, info=info)
+    ax = figures["rupture.png"].axes[0]
+    assert _impact_lines(ax) == []
+    assert not any("c_l" in t.get_text() or "c_s" in t.get_text() for t in ax.get_legend().get_texts())
+    tip.tip_speed(summary["tip"], tmp_path / "tip.png", info=info)
+    assert [ln.get_label() for ln in figures["tip.png"].axes[0].lines] == [r"$x_{\rm tip}$"]
+
+
+def test_interface_panel_b_draws_the_rate_of_shear_traction_whatever_the_step(tmp_path, monkeypatch):
+    """Panel (b)'s right axis is Ṫ_s = dT_s/dt in MPa/µs: the file's increment divided by the
+    summary's dt, times the sliding sign; the same run written with twice the step draws the
+    same curve (the per-step increment doubled with it, and switched units between runs)."""
+    import sys
+
+    from fricfem.plot import interface
+
+    figures = _keep_figures(monkeypatch, interface)
+    curves = []
+    for k, dt in enumerate((DT, 2 * DT)):
+        monkeypatch.setattr(sys.modules[__name__], "DT", dt)
+        rundir = make_run(tmp_path / f"dt{k}", n_time=60, fields=False)
+        with rd.open_interface(rundir) as itf:
+            last = itf.n_time - 1
+            sign = rd.sliding_sign(itf)
+            want = sign * itf.rows("shear_traction_increment", [last])[0] / dt * 1e-12
+            info = rd.run_info(rundir)
+            interface.interface_distributions(itf, [itf.time[last]], tmp_path / f"i{k}.png", info=info)
+        fig = figures[f"i{k}.png"]
+        (rate_ax,) = [a for a in fig.axes if "MPa/µs" in a.get_ylabel()]
+        assert rate_ax.get_ylabel() == (r"$-\dot T_s$" if sign < 0 else r"$\dot T_s$") + " [MPa/µs]"
+        (line,) = rate_ax.lines
+        np.testing.assert_allclose(line.get_ydata(), want, rtol=1e-12, atol=0)
+        assert np.max(np.abs(want)) > 0
+        curves.append(line.get_ydata())
+    np.testing.assert_allclose(curves[0], curves[1], rtol=1e-12, atol=1e-12)
+

@@ -64,3 +64,23 @@ def time_styles(n: int) -> list[str]:
 def markers(x_visible: int) -> dict:
     """Small symbols at the integration points when few enough to be seen (the paper's circles)."""
     return {"marker": "o", "ms": 2.2, "mfc": "none", "mew": 0.6} if x_visible <= 400 else {}
+
+
+def has_impact(info) -> bool:
+    """Whether the run was struck (an edge velocity or the experiment's projectile): only then do
+    the lines x1 = c t from the struck corner mean anything.  Unknown V_imp counts as struck."""
+    return info.v_imp is None or info.v_imp > 0 or bool(info.projectile)
+
+
+def sliding_extent(x, rate, margin: float = 0.08):
+    """(lo, hi) [same unit as ``x``] of the points that ever slide (``rate`` [n_t, n_x] > 0),
+    widened by ``margin`` of the span (at least 2 % of the interface) and kept inside ``x``;
+    None if nothing slides."""
+    x = np.asarray(x, dtype=float)
+    slid = np.flatnonzero(np.any(np.asarray(rate) > 0, axis=0)) if np.size(rate) else np.zeros(0, int)
+    if len(slid) == 0:
+        return None
+    lo, hi = float(x[slid[0]]), float(x[slid[-1]])
+    pad = max(margin * (hi - lo), 0.02 * (x[-1] - x[0]))
+    return max(float(x[0]), lo - pad), min(float(x[-1]), hi + pad)
+

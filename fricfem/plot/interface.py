@@ -18,7 +18,7 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
     """Distributions along x1 at ``times`` [s] (nearest stored rows) into ``path``.
 
     (a) Δu̇_slip [m/s] and T_s [MPa] at every time (earlier ones dashed);
-    (b) Δu̇_s and dT_s = Ṫ_s dt at the last time; with ``full`` also
+    (b) Δu̇_s and the rate Ṫ_s [MPa/µs] at the last time; with ``full`` also
     (c) T_n and μ_app and (d) Δu_slip and Δu_s [µm] at the last time.
     ``src``: run directory, interface.h5, h5py.File or :class:`InterfaceFile`;
     ``xlim`` (x1_min, x1_max) [m], default from the impact edge to just past
@@ -55,7 +55,8 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
         ax.legend(handles=[Line2D([], [], color="k", ls=s, label=f"t = {tk * 1e6:.3g} µs")
                            for s, tk in zip(styles, t)], loc="upper right", fontsize=8, framealpha=0.8)
 
-        tops = [axr, _twin_panel(axes[1], x, sign, q, "jump_rate_s", "shear_traction_increment", mk)]
+        tops = [axr, _twin_panel(axes[1], x, sign, q, "jump_rate_s", "shear_traction_increment", mk,
+                                 dt=_step(itf))]
         if full:
             tops.append(_twin_panel(axes[2], x, sign, q, "normal_traction", "mu_app", mk))
             _slip_panel(axes[3], x, sign, q, mk)
@@ -95,11 +96,38 @@ def _draw_regions(axes, spans, xlim) -> None:
                      ha="center", va="top", fontsize=7, color="C2")
 
 
-def _twin_panel(ax, x, sign, q, left: str, right: str, mk):
+def _step(itf) -> float | None:
+    """The run's time step [s]: summary.json's ``dt_s`` next to interface.h5, else the file's
+    ``dt`` attribute; None if neither says."""
+    import json
+
+    try:
+        summary = json.loads((Path(itf.file.filename).parent / "summary.json").read_text())
+        dt = summary.get("dt_s")
+    except (OSError, ValueError, AttributeError, TypeError):
+        dt = None
+    if dt is None:
+        dt = itf.attrs.get("dt")
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError):
+        return None
+    return dt if np.isfinite(dt) and dt > 0 else None
+
+
+#: The rate of T_s in the figures: MPa/µs (= 10¹² Pa/s), whatever the run's step.
+RATE_UNIT = (1e-12, "MPa/µs")
+
+
+def _twin_panel(ax, x, sign, q, left: str, right: str, mk, dt: float | None = None):
     """``left`` on the left axis (C0), ``right`` on a twin right axis (C3), at one
-    time; returns the twin axes."""
+    time; returns the twin axes.  The step's shear-traction increment dT_s is drawn as
+    the rate Ṫ_s = dT_s/dt [MPa/µs] when the step ``dt`` [s] is known (it then does not
+    depend on dt, nor switch units between runs), else per step with its unit."""
     def scaled(name):
         v = q[name] * (sign if name in SIGNED else 1.0)
+        if name == "shear_traction_increment" and dt:
+            return v / dt * RATE_UNIT[0], f" [{RATE_UNIT[1]}]"
         if name in ("shear_traction", "normal_traction", "shear_traction_increment"):
             scale, unit = stress_unit(v)
             return v * scale, f" [{unit}]"
@@ -114,7 +142,10 @@ def _twin_panel(ax, x, sign, q, left: str, right: str, mk):
             continue
         v, unit = scaled(name)
         a.plot(x, v, color, lw=1.2, **mk)
-        color_axis(a, color, label(name, sign) + unit)
+        text = label(name, sign)
+        if name == "shear_traction_increment":
+            text = (r"$-\dot T_s$" if sign < 0 else r"$\dot T_s$") if dt else text + " per step"
+        color_axis(a, color, text + unit)
     return axr
 
 

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..output.rundir import RunInfo, open_interface, run_info
-from .common import DPI, SPEED_LABEL, label, save
+from .common import DPI, SPEED_LABEL, has_impact, label, save, sliding_extent
 
 
 
@@ -63,11 +63,18 @@ def spacetime(src, path, *, summary: dict | None = None, info: RunInfo | None = 
     else:
         ax.text(0.5, 0.5, "no sliding in the rows written", transform=ax.transAxes, ha="center")
     tmax = float(t[-1]) if len(t) else 1e-6
-    _reference_lines(ax, info.speeds, tmax, float(x[-1]) if len(x) else 0.1)
+    struck = has_impact(info)  # no impact (a rupture problem): no lines from a struck corner
+    if struck:
+        _reference_lines(ax, info.speeds, tmax, float(x[-1]) if len(x) else 0.1)
     handles = _front_lines(ax, summary)
     handles += [Line2D([], [], color="k", ls=ls, lw=1, label=rf"$x_1 = {SPEED_LABEL[key][1:-1]}\,t$")
-                for key, ls in (("c_l", "-."), ("c_s", ":")) if info.speeds.get(key)]
-    ax.set_xlim(min(0.0, x[0] * 1e3) if len(x) else 0, x[-1] * 1e3 if len(x) else 1)
+                for key, ls in (("c_l", "-."), ("c_s", ":")) if struck and info.speeds.get(key)]
+    # x1: where the interface slid (from the struck edge when struck), not the whole plate
+    extent = sliding_extent(x, rate) if peak > 0 else None
+    if extent is None:
+        ax.set_xlim(min(0.0, x[0] * 1e3) if len(x) else 0, x[-1] * 1e3 if len(x) else 1)
+    else:
+        ax.set_xlim((min(0.0, x[0]) if struck else extent[0]) * 1e3, extent[1] * 1e3)
     ax.set_ylim(min(0.0, t[0] * 1e6) if len(t) else 0, tmax * 1e6)
     ax.set_xlabel(r"$x_1$ [mm]")
     ax.set_ylabel(r"$t$ [µs]")

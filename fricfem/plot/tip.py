@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..output.rundir import RunInfo
-from .common import DPI, SPEED_LABEL, panel_letter, save
+from .common import DPI, SPEED_LABEL, has_impact, panel_letter, save
 
 
 
@@ -27,7 +27,7 @@ def tip_speed(tip: dict, path, *, info: RunInfo | None = None) -> Path:
     if len(x) == len(t) and len(t):
         ax_x.plot(t, x, "k.-" if len(t) <= 150 else "k-", ms=3, lw=0.8, label=r"$x_{\rm tip}$")
         c_l = info.speeds.get("c_l")
-        if c_l:
+        if c_l and has_impact(info):  # the line from the struck corner: none without an impact
             tt = np.array([0.0, t.max()])
             ax_x.plot(tt, c_l * tt * 1e-3, "0.5", ls=":", lw=1, label=r"$x_1 = c_l t$")
         ax_x.legend(loc="lower right", fontsize=8)
