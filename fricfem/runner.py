@@ -292,17 +292,33 @@ def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
             "outputs_share": (total - parts["step"]) / total if total > 0 else 0.0}
 
 
+#: how long a rank that raised waits for every other rank to raise too [s] (:func:`_guarded`)
+AGREE_S = 20.0
+
+
 def _guarded(comm, out: Path, fn):
-    """``fn()``; an exception on one rank of several ends the whole job: one line on
-    stderr, then ``MPI_Abort`` (the other ranks wait in a collective that would never
-    complete).  Errors raised on every rank by a collective check (SceneError,
-    RunDirError) and any error on a single rank propagate as usual."""
+    """``fn()``; an exception on some ranks of several only ends the whole job: one
+    line on stderr, then ``MPI_Abort`` (the other ranks wait in a collective that
+    would never complete).  An exception raised on every rank (the same code
+    failing alike everywhere: a library's error, a bad value) propagates on every
+    rank as on one, so the caller sees it (pytest reports a failure instead of
+    losing the job): the ranks that raised meet in a barrier of their own
+    communicator, and a rank that is not met within :data:`AGREE_S` aborts.
+    Errors raised on every rank by a collective check (SceneError, RunDirError)
+    and any error on a single rank propagate as usual."""
+    if comm.size == 1:
+        return fn()
+    raised = comm.Dup()  # apart from the run's own collectives
     try:
         return fn()
     except (SceneError, RunDirError):
         raise
     except Exception as err:
-        if comm.size == 1:
+        met = raised.Ibarrier()
+        deadline = time.monotonic() + AGREE_S
+        while not met.Test() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if met.Test():
             raise
         what = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) and err.filename and err.strerror \
             else f"{type(err).__name__}: {err}"
@@ -310,6 +326,8 @@ def _guarded(comm, out: Path, fn):
                          f"rank (MPI_Abort); {str(out)!r} keeps what was flushed\n")
         sys.stderr.flush()
         comm.Abort(1)
+    finally:
+        raised.Free()
 
 
 def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = False, quiet: bool = False,

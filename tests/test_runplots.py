@@ -132,10 +132,12 @@ def write_fields(path: Path) -> None:
     from dolfinx import fem, mesh
     from dolfinx.io import XDMFFile
 
+    from fricfem import compat
+
     msh = mesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, -0.075]), np.array([0.137, 0.075])],
                                 [110, 120])
-    V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
-    W = fem.FunctionSpace(msh, ("DG", 0))
+    V = compat.function_space(msh, "Lagrange", 1, (2,))
+    W = compat.function_space(msh, "DG", 0)
     u = fem.Function(V, name="displacement")
     v = fem.Function(V, name="velocity")
     s = fem.Function(W, name="stress_difference")
@@ -338,6 +340,7 @@ def test_tip_speed_figure_draws_the_summary_speeds_at_their_times(run_plots, tmp
     assert np.allclose(curve.get_ydata(), np.clip(v_want, 0, ax_v.get_ylim()[1]), rtol=0, atol=0)
     assert curve.get_xdata()[-1] == pytest.approx(rec["v_tip_time_s"][-1] * 1e6)
     assert not np.array_equal(t_want, np.asarray(rec["time_s"][: len(v_want)]) * 1e6)  # the old bug would differ
+
 
 def _keep_figures(monkeypatch, *modules) -> dict:
     """{file name: Figure} of every figure the given plot modules save."""

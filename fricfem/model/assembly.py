@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .. import compat  # noqa: I001  (mpi4py before dolfinx: fricfem/compat.py)
 from dolfinx import fem
 from petsc4py import PETSc
 
@@ -25,7 +27,7 @@ from .material import Material
 
 
 def function_space(msh):
-    return fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+    return compat.function_space(msh, "Lagrange", 1, (2,))
 
 
 def element_blocks(x, cells, material: Material) -> np.ndarray:

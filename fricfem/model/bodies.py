@@ -328,7 +328,9 @@ def field_moduli(V, spec: BodiesMesh, material: Material, exp: Experiment) -> _M
     projectile (true stresses: the thickness factor is not applied)."""
     from dolfinx import fem
 
-    W = fem.FunctionSpace(V.mesh, ("DG", 0))
+    from .. import compat
+
+    W = compat.function_space(V.mesh, "DG", 0)
     steel = exp.steel(material.plane)
     out = []
     for name in ("mu", "lmbda"):

@@ -91,31 +91,21 @@ def _partitioner(centroids: np.ndarray):
     (all cells are on the calling communicator's rank 0 when it runs), with
     ghosts on the parts that hold a facet neighbour when ghosting is asked for.
     The partition, hence every result, is the same from one run to the next."""
-    import dolfinx.cpp as cpp
+    from .. import compat
 
     def part(comm, nparts, graph, ghosting):
         n = len(graph.offsets) - 1
         if n == 0:
-            return cpp.graph.AdjacencyList_int32(np.zeros(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
+            return compat.adjacency_int32(np.zeros(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
         if n != len(centroids):
             raise RuntimeError(f"mesh: the partitioner got {n} cells, expected {len(centroids)} on one rank")
         owner = bisection_parts(centroids, nparts)
         if not ghosting:
-            return cpp.graph.AdjacencyList_int32(owner, np.arange(n + 1, dtype=np.int32))
+            return compat.adjacency_int32(owner, np.arange(n + 1, dtype=np.int32))
         dest, offsets = ghost_destinations(owner, np.asarray(graph.array), np.asarray(graph.offsets), nparts)
-        return cpp.graph.AdjacencyList_int32(dest, offsets)
+        return compat.adjacency_int32(dest, offsets)
 
-    return cpp.mesh.create_cell_partitioner(part)
-
-
-def _coordinate_element():
-    """The coordinate element of linear triangles in the plane (what
-    ``dolfinx.io.gmshio.ufl_mesh(2, 2)`` gives, without importing gmsh: ~0.3 s of
-    every run's start-up)."""
-    import ufl
-
-    cell = ufl.Cell("triangle", geometric_dimension=2)
-    return ufl.Mesh(ufl.VectorElement(ufl.FiniteElement("Lagrange", cell, 1, variant="equispaced")))
+    return compat.cell_partitioner(part)
 
 
 class PlateMesh(NamedTuple):
@@ -153,12 +143,14 @@ def _facet_tags(msh, tagged: tuple) -> tuple:
     matched against the tagged pairs.  What distributing the tags with the mesh
     gives (``tests/test_foundation.py`` compares the two); the tagged facets are the
     boundary's, a few thousand, so sending them all to every rank is cheap."""
+    from .. import compat
+
     facets, tags = tagged
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, 0)
     # each topology vertex's geometry node, through the cells (same local order in both)
     c2v = msh.topology.connectivity(tdim, 0).array
-    c2g = msh.geometry.dofmap.array
+    c2g = compat.geometry_dofs(msh)
     node_of = np.empty(msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts, dtype=np.int64)
     node_of[c2v] = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[c2g]
     f2v = msh.topology.connectivity(tdim - 1, 0).array.reshape(-1, 2)
@@ -178,7 +170,7 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
 
     ``msh_file``: also write the grid there as a gmsh model (rank 0).
     """
-    import dolfinx.mesh as dmesh
+    from .. import compat
 
     if comm.rank == 0:
         x, cells, cell_tags, facets, facet_tags = grid_arrays(spec)
@@ -189,13 +181,13 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
         x, cells, centroids = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 2))
         cell_tags, facets, facet_tags = (np.zeros(0, dtype=np.int32), np.zeros((0, 2), dtype=np.int64),
                                          np.zeros(0, dtype=np.int32))
-    msh = dmesh.create_mesh(comm, cells, x, _coordinate_element(), partitioner=_partitioner(centroids))
+    msh = compat.create_mesh(comm, cells, x, compat.coordinate_element(), _partitioner(centroids))
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim, 0)
-    ct = dmesh.meshtags(msh, tdim, *_cell_tags(msh, comm.bcast(_runs(cell_tags) if comm.rank == 0 else None)))
+    ct = compat.meshtags(msh, tdim, *_cell_tags(msh, comm.bcast(_runs(cell_tags) if comm.rank == 0 else None)))
     ct.name = "Cell tags"
     msh.topology.create_connectivity(tdim - 1, tdim)
-    ft = dmesh.meshtags(msh, tdim - 1, *_facet_tags(msh, comm.bcast((facets, facet_tags) if comm.rank == 0 else None)))
+    ft = compat.meshtags(msh, tdim - 1, *_facet_tags(msh, comm.bcast((facets, facet_tags) if comm.rank == 0 else None)))
     ft.name = "Facet tags"
     msh.topology.create_connectivity(1, 2)
     return PlateMesh(msh, ct, ft, spec)
@@ -205,13 +197,15 @@ def info(pm: PlateMesh) -> dict:
     """Global sizes of a built mesh (collective)."""
     from mpi4py import MPI
 
+    from .. import compat
+
     msh = pm.mesh
     comm = msh.comm
     tdim = msh.topology.dim
     imap_c = msh.topology.index_map(tdim)
     imap_v = msh.topology.index_map(0)
     x = msh.geometry.x[:, :2]
-    cells = msh.geometry.dofmap.array.reshape(-1, 3)[: imap_c.size_local]
+    cells = compat.geometry_dofs(msh).reshape(-1, 3)[: imap_c.size_local]
     p = x[cells]
     e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
     area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])

@@ -49,12 +49,14 @@ class Numbering(NamedTuple):
 def numbering(pm, V) -> Numbering:
     """The numbering of the distributed mesh ``pm`` and its P1 vector space ``V``
     (collective: one allgather of the owned blocks' global indices)."""
+    from .. import compat
+
     x, cells, _, facets, facet_tags = grid_arrays(pm.spec)
     msh = pm.mesh
     imap = V.dofmap.index_map
     n_local = imap.size_local + imap.num_ghosts
-    dof_cells = V.dofmap.list.array.reshape(-1, 3)
-    geo_cells = msh.geometry.dofmap.array.reshape(-1, 3)
+    dof_cells = compat.cell_dofs(V.dofmap).reshape(-1, 3)
+    geo_cells = compat.geometry_dofs(msh).reshape(-1, 3)
     node = np.full(n_local, -1, dtype=np.int64)
     node[dof_cells.ravel()] = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[geo_cells.ravel()]
     if (node < 0).any():

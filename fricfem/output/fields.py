@@ -32,6 +32,8 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+
+from .. import compat  # noqa: I001  (mpi4py before dolfinx: fricfem/compat.py)
 import ufl
 from dolfinx import fem
 from dolfinx.io import XDMFFile
@@ -67,7 +69,7 @@ def stress_difference_ufl(u, material, sigma0: float, tau0: float = 0.0):
 def _cell_values(modulus, n_cells: int) -> np.ndarray:
     """A modulus per cell: float64[n_cells] for a DG0 function, float64[1] for a number."""
     if isinstance(modulus, fem.Function):
-        return np.ascontiguousarray(modulus.x.array[modulus.function_space.dofmap.list.array[:n_cells]])
+        return np.ascontiguousarray(modulus.x.array[compat.cell_dofs(modulus.function_space.dofmap)[:n_cells]])
     return np.array([float(modulus)])
 
 
@@ -76,9 +78,9 @@ def stress_inputs(V, material, sigma0: float, tau0: float, n_cells: int) -> tupl
     first-order triangle mesh: (shape gradients, the cells' node dofs, μ, λ
     [Pa], Σ0, τ0 [Pa]); ``material.mu``, ``.lmbda`` numbers or DG0 functions."""
     msh = V.mesh
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]
+    nodes = compat.geometry_dofs(msh).reshape(-1, 3)[:n_cells]
     return (shape_gradients(msh.geometry.x[nodes][:, :, :2]),
-            np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 3)[:n_cells]),
+            np.ascontiguousarray(compat.cell_dofs(V.dofmap).reshape(-1, 3)[:n_cells]),
             _cell_values(material.mu, n_cells), _cell_values(material.lmbda, n_cells), float(sigma0), float(tau0))
 
 
@@ -164,8 +166,8 @@ class FieldWriter:
         function of a first-order mesh: this rank's owned geometry nodes (their
         value is the dof the cells map them to) and its owned cells (in their
         order); rank 0 also learns every rank's counts (collective)."""
-        nodes = msh.geometry.dofmap.array
-        dofs = V.dofmap.list.array
+        nodes = compat.geometry_dofs(msh)
+        dofs = compat.cell_dofs(V.dofmap)
         if len(nodes) != len(dofs):
             raise ValueError("fields: the function space's cells do not match the mesh's (first order only)")
         node_dof = np.empty(msh.geometry.x.shape[0], dtype=np.int64)
