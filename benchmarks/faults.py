@@ -19,7 +19,10 @@ run directory is checked against a complete run of the same scene:
     .venv/bin/python benchmarks/faults.py --n 3 --no-write
 
 The helpers (:func:`start`, :func:`kill_tree`, :func:`check`) are what
-``tests/test_faults.py`` uses.
+``tests/test_faults.py`` uses; it kills on events, not at instants
+(:func:`kill_at_rows`: once the run's interface.h5 is laid out, or holds a
+given number of valid rows, read from the file), so that where a kill lands
+does not depend on the machine's speed or load.
 """
 
 from __future__ import annotations
@@ -180,6 +183,50 @@ def kill_once(args, out: Path, ref: Path, at: float, plot: bool = True) -> dict:
     killed = kill_tree(p.pid)
     p.wait()
     res = {"kill_at_s": round(at, 3), "ended_before_kill": ended, "processes_killed": killed, **check(out, ref)}
+    if plot and (out / "interface.h5").exists():
+        ok, why = plot_ok(out)
+        res["plot"] = ok
+        if not ok:
+            res["problems"].append(f"fricfem plot: {why}")
+    return res
+
+
+def live_rows(path: Path) -> int | None:
+    """The valid rows of a running job's interface.h5, read from the file as any
+    reader would (0: laid out, no row flushed yet); None while it is not there
+    (it appears complete, by a rename, once laid out) or cannot be read at this
+    instant."""
+    from fricfem.output.rundir import _h5open, valid_rows
+
+    if not Path(path).is_file():
+        return None
+    try:
+        with _h5open(path) as f:
+            return valid_rows(f["time"])
+    except Exception:  # being replaced at the end of the run: look again
+        return None
+
+
+def kill_at_rows(args, out: Path, ref: Path, rows: int, plot: bool = True, poll_s: float = 0.02) -> dict:
+    """Start the run, wait for the event — its interface.h5 laid out (``rows`` = 0)
+    or holding at least ``rows`` valid rows — then SIGKILL it at once and check
+    what it left (:func:`check`).  ``rows_seen``: the valid rows when the event
+    was seen (None: the run ended first).  No clock: ``poll_s`` is only how often
+    the file is looked at.  ``out`` is emptied first (see :func:`kill_once`)."""
+    shutil.rmtree(out, ignore_errors=True)
+    p = start(args, out)
+    seen = None
+    while p.poll() is None:
+        n = live_rows(out / "interface.h5")
+        if n is not None and n >= rows:
+            seen = n
+            break
+        time.sleep(poll_s)
+    ended = p.poll() is not None
+    killed = kill_tree(p.pid)
+    p.wait()
+    res = {"kill_at_rows": rows, "rows_seen": seen, "ended_before_kill": ended, "processes_killed": killed,
+           **check(out, ref)}
     if plot and (out / "interface.h5").exists():
         ok, why = plot_ok(out)
         res["plot"] = ok

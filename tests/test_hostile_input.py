@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import time
 
 import pytest
 from mpi4py import MPI
@@ -36,11 +35,10 @@ def no_mesh(monkeypatch):
 
 
 def refused(overrides, *needles, ref="case1"):
-    """The SceneError message for ``overrides`` (each needle must be in it); validation is fast."""
-    t0 = time.perf_counter()
+    """The SceneError message for ``overrides`` (each needle must be in it); validation
+    is fast: it builds no mesh (the autouse ``no_mesh``; counted, not timed)."""
     with pytest.raises(SceneError) as err:
         load_scene(ref, overrides)
-    assert time.perf_counter() - t0 < 2.0
     msg = str(err.value)
     assert "\n" not in msg
     for n in needles:
@@ -51,9 +49,7 @@ def refused(overrides, *needles, ref="case1"):
 def command(capsys, argv):
     """(status, stderr lines) of ``fricfem ARGV`` in process, on this rank (stdout kept in ``command.out``)."""
     capsys.readouterr()
-    t0 = time.perf_counter()
-    status = cli.main(argv)
-    assert time.perf_counter() - t0 < 5.0
+    status = cli.main(argv)  # no mesh is built (the autouse ``no_mesh``)
     captured = capsys.readouterr()
     command.out = captured.out
     return status, [line for line in captured.err.splitlines() if line.strip()]

@@ -388,14 +388,23 @@ def test_order_is_heaviest_first():
 
 def test_free_groups_take_the_next_job(tmp_dir_shared, comm):
     """A group that drew a long job takes no more while the others run the rest:
-    the groups take jobs from one shared counter as they free up (each job once)."""
+    the groups take jobs from one shared counter as they free up (each job once).
+    The long job lasts until every short job is done (an event: their marker
+    files), not for a time that a loaded machine could outlast; a split fixed in
+    advance would leave it waiting for shorts it holds itself, until the bound
+    that only ends such a wait, and then run them: the check below fails."""
     import time
 
     jobs = [batch.Job("long", tmp_dir_shared / "long", None, cost=9.0)]
     jobs += [batch.Job(f"short{k}", tmp_dir_shared / f"short{k}", None, cost=1.0) for k in range(6)]
 
     def work(job, c):
-        time.sleep(1.5 if job.key == "long" else 0.05)
+        if job.key != "long":
+            (tmp_dir_shared / f"done-{job.key}").touch()
+        elif comm.size > 1:
+            bound = time.monotonic() + 120.0  # ends a wait that would never end (a wrong scheduler), nothing else
+            while len(list(tmp_dir_shared.glob("done-short*"))) < 6 and time.monotonic() < bound:
+                time.sleep(0.01)
         return {"outcome": "ok", "rank": comm.rank}
 
     results = batch.run_jobs(jobs, comm, work=work, finished=lambda r: False)
