@@ -254,10 +254,10 @@ class GaugeWriter:
 
         tmp = self.path.with_name(f".{self.path.name}.part")
         tmp.unlink(missing_ok=True)
-        # HDF5 crashes on a write that fails while it lays a file out: the file and its end-of-run copy must fit
+        # HDF5 crashes on a write that fails while it lays a file out: the file must fit (a run that reaches
+        # its end needs no copy of it; one stopped early keeps it as laid out if its copy does not fit)
         values = 2 + len(self.names) * sum(max(1, len(comps)) for _, comps, _ in QUANTITIES.values())
-        check_space(self.path, 2 * 8 * self.planned * values + (64 << 10) + 2048 * len(QUANTITIES),
-                    "the gauges file and its end-of-run copy")
+        check_space(self.path, 8 * self.planned * values + (64 << 10) + 2048 * len(QUANTITIES), "the gauges file")
         try:
             f = h5py.File(tmp, "w")
         except OSError as err:

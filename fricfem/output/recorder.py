@@ -17,12 +17,15 @@ byte of HDF5 metadata: whatever instant a process is killed at, the file's
 structure is the one it was created with.  A flush writes the pending rows'
 values first and their times after them (each handed to the operating system
 as it is written: :class:`RawRows`), so a row whose time is finite is complete: the
-valid rows are the leading rows with a finite time (:mod:`.rundir`).  When
-the run ends (complete, or stopped early by the tip, the watchdog or SIGTERM)
-the file is copied to one of exactly the rows it has, with their counts as
-the attributes ``n_time`` (root) and ``n`` (per station, energy) that readers
-of earlier formats use, and renamed over the original: a finished run holds
-no NaN rows.
+valid rows are the leading rows with a finite time (:mod:`.rundir`).  The row
+counts of a run that reaches its end are laid out with the file, as the
+attributes ``n_time`` (root) and ``n`` (per station, energy) that readers of
+earlier formats use (readers take the smaller of a count and the rows with a
+finite time): such a run's file is final as it stands.  A run stopped early
+(by the tip, the watchdog, SIGTERM or SIGINT) is copied to a file of exactly
+the rows it has, with their counts, renamed over the original: a finished run
+holds no NaN rows.  Its pre-loop space check is the file's size; a copy that
+does not fit keeps the laid-out file (and the run's summary says so).
 """
 
 from __future__ import annotations
@@ -113,10 +116,11 @@ class Recorder:
         if self.comm.rank == 0:
             need = _nbytes(self.rows, self.n_point, len(self.names), len(self.stations), len(ENERGY))
             try:
-                # HDF5 cannot survive a failed write while it lays a file out (it crashes in close):
-                # the space is checked first, for the file and for its end-of-run copy (close)
-                check_space(self.path, 2 * need + _metadata_bytes(len(self.names), len(self.stations)),
-                            "the interface file and its end-of-run copy")
+                # HDF5 cannot survive a failed write while it lays a file out (it crashes in close): the
+                # space is checked first.  A run that reaches its end needs no copy (:meth:`close`); one
+                # that stops early keeps its laid-out file when the copy of its rows does not fit
+                check_space(self.path, need + _metadata_bytes(len(self.names), len(self.stations)),
+                            "the interface file")
                 self.h5 = self._create(scene, speeds)
             except OSError as err:
                 error = f"{err.filename}: cannot write the run's interface file ({need / 1e6:.3g} MB): {err.strerror}"
@@ -157,6 +161,7 @@ class Recorder:
             g.attrs["unit"] = "J/m (per unit thickness); time in s"
             for k in ENERGY:
                 _dataset(g, k, (self.rows["energy"],), "f8", ENERGY[k])
+            _count_attrs(f, self._planned())  # a run that reaches its end writes every row: nothing to copy
             names = ["time", *self.names, *(f"energy/{k}" for k in ENERGY),
                      *(f"stations/{s}/{c}" for s in self.stations for c in ["time", *(q.name for q in QUANTITIES)])]
             layout = {name: _place(f[name]) for name in names}
@@ -311,14 +316,23 @@ class Recorder:
         return np.array(self.snap_t), (np.concatenate([full[k] for _, full in self.blocks]) if self.blocks
                                        else np.array([]))
 
+    def _planned(self) -> dict:
+        """The rows of every group when the run reaches its end (the counts laid out with the file)."""
+        return {"": self.rows["snapshots"], "energy": self.rows["energy"],
+                **{f"stations/{k}": self.rows["stations"] for k in self.stations}}
+
     def close(self) -> None:
-        """Close the file and replace it by a copy of its valid rows with their counts (rank 0)."""
+        """Close the file; unless every planned row was written (its counts, laid out with
+        it, are then right), replace it by a copy of its valid rows with their counts (rank
+        0).  A copy that does not fit raises OSError and leaves the laid-out file, whole."""
         if self.h5 is None:
             return
         f, self.h5 = self.h5, None
         f.close()
-        compact(self.path, {"": self.written["snapshots"], "energy": self.written["energy"],
-                            **{f"stations/{k}": n for k, n in self.station_n.items()}})
+        rows = {"": self.written["snapshots"], "energy": self.written["energy"],
+                **{f"stations/{k}": n for k, n in self.station_n.items()}}
+        if rows != self._planned():
+            compact(self.path, rows)
 
 
 def _place(dset) -> tuple:
@@ -439,7 +453,7 @@ def check_space(path: Path, need: int, what: str) -> None:
     """Raise ``OSError(ENOSPC)`` naming ``path`` when its file system has fewer than ``need`` bytes free."""
     free = free_bytes(Path(path).parent)
     if free < need:
-        raise OSError(errno.ENOSPC, f"No space left on device: {what} need {need / 1e6:.3g} MB, the file system "
+        raise OSError(errno.ENOSPC, f"No space left on device: {what} needs {need / 1e6:.3g} MB, the file system "
                       f"has {free / 1e6:.3g} MB free", str(path))
 
 
