@@ -128,8 +128,11 @@ def cell_dofs(dofmap):
 
 def geometry_dofs(msh):
     """Each local cell's geometry nodes (rows of ``msh.geometry.x``), int32, flat (cell after cell)."""
-    dm = msh.geometry.dofmap
-    return np.asarray(dm.array if LEGACY else dm).reshape(-1)
+    g = msh.geometry
+    if LEGACY:
+        return np.asarray(g.dofmap.array).reshape(-1)
+    dms = getattr(g, "dofmaps", None)  # 0.10/0.11: one per cell type (``dofmap`` deprecated)
+    return np.asarray(dms[0] if isinstance(dms, (list, tuple)) else g.dofmap).reshape(-1)
 
 
 def interpolation_points(V):

@@ -293,7 +293,7 @@ def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
 
 
 #: how long a rank that raised waits for every other rank to raise too [s] (:func:`_guarded`)
-AGREE_S = 20.0
+AGREE_S = 5.0
 
 
 def _guarded(comm, out: Path, fn):
