@@ -100,11 +100,13 @@ def expected_cost(scene) -> float:
 
 
 def stored(job: Job) -> dict | None:
-    """``job.json`` of the job's directory ({"identity", "record"}), or None."""
+    """``job.json`` of the job's directory ({"identity", "record"}), or None (none there, or
+    not a JSON table: a damaged record does not count as a finished job)."""
     try:
-        return json.loads((Path(job.dir) / JOB_FILE).read_text())
-    except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError):
+        doc = json.loads((Path(job.dir) / JOB_FILE).read_text())
+    except (OSError, ValueError):  # missing, a directory, unreadable, not JSON or not UTF-8
         return None
+    return doc if isinstance(doc, dict) else None  # damaged (a list, a number): the job runs again
 
 
 def status(job: Job) -> str:

@@ -276,7 +276,8 @@ def _plot(args) -> int:
     from .plot import run as plot_run
 
     return plot_run.main([args.rundir] + (["--times", args.times] if args.times is not None else [])
-                         + (["--out", args.out] if args.out is not None else []))
+                         + (["--out", args.out] if args.out is not None else [])
+                         + ["--max-figures", str(args.max_figures)])
 
 
 def _sweep(argv) -> int:
@@ -344,6 +345,9 @@ def main(argv=None) -> int:
     p.add_argument("rundir")
     p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
     p.add_argument("--out", help="figure directory (default RUNDIR/plots)")
+    p.add_argument("--max-figures", type=int, default=24, metavar="N",
+                   help="at most N isochromatic figures and frame-series panels, evenly spaced in time "
+                        "(default 24; 0: every snapshot; the others are named in a warning)")
     p.set_defaults(func=_plot)
     p = sub.add_parser("export", help="station time series of a run: SCEC code-verification ASCII (one file "
                                       "per station) or CSV")
@@ -372,12 +376,12 @@ def main(argv=None) -> int:
         return args.func(args)
     except ValueError as err:  # SceneError, RunDirError and every other bad-input error
         return _error(str(err))
+    except BrokenPipeError:  # `fricfem ... | head`: the reader left; quietly, as other tools (before OSError)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # the exit's flush goes nowhere
+        return 0
     except OSError as err:  # the file system failed under a run (no space, ...): one line naming the path
         _error(f"{err.filename}: {err.strerror}" if err.filename and err.strerror else f"{type(err).__name__}: {err}")
         return 1
-    except BrokenPipeError:  # `fricfem ... | head`: the reader left
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -59,8 +60,8 @@ DEFAULT_V_IMP = (1.0, 2.0, 4.0, 7.0, 10.0, 15.0, 20.0, 40.0)
 #: interface stiffness" paragraph: × 10 gives only crack-like sliding, ÷ 10 no trains).
 VARIANTS = {"stiff_x10": 10.0, "stiff_div10": 0.1}
 
-#: Keys the sweep sets itself; ``--set`` may not touch them.
-SWEPT_KEYS = ("loading.sigma0", "loading.v_imp", "output.fields")
+#: Keys the sweep sets itself (or, for field output, turns off); ``--set`` may not touch them.
+SWEPT_KEYS = ("loading.sigma0", "loading.v_imp", "output.fields", "output.frames")
 
 
 class Point(NamedTuple):
@@ -141,11 +142,11 @@ def _check_sets(sets, preset) -> list:
     """The --set items, checked: well formed, not a key the sweep sets, the preset given once."""
     sets = list(sets or ())
     for item in sets:
-        scene_mod.parse_override(item)  # the item's form: section.key=value
-        key = item.partition("=")[0].strip()
+        keys, _ = scene_mod.parse_override(item)  # the item's form: section.key=value
+        key = ".".join(keys)  # normalised: 'loading . sigma0' is loading.sigma0
         if key in SWEPT_KEYS:
             raise SceneError(f"--set {item!r}: {key} is set by the sweep itself (use --sigma0 / --v-imp; "
-                             f"sweeps write no field snapshots)")
+                             f"sweeps write no field snapshots nor isochromatic frames)")
         if key == "mesh.preset" and preset:
             raise SceneError(f"--set {item!r} and --preset {preset}: give the mesh preset once")
     return sets
@@ -165,6 +166,9 @@ def plan(base: str, sigma0_mpa, v_imp, sets=(), preset: str | None = None, varia
     common = _check_sets(sets, preset) + ([f"mesh.preset={json.dumps(preset)}"] if preset else []) \
         + ["output.fields=[]"]
     base_scene = scene_mod.load(base, common)
+    if base_scene.output["frames"]:  # a base scene's camera frames are field snapshots too: none in a sweep
+        common.append("output.frames=[]")
+        base_scene = scene_mod.load(base, common)
     maps = {"": {"dir": out, "overrides": tuple(common), "factor": 1.0, "Cn": base_scene.Cn, "Cs": base_scene.Cs,
                  "scene": base_scene}}
     if variants:  # scale whatever C_n, C_s the base scene and --set give
@@ -311,8 +315,14 @@ class _Log:
 
     def __call__(self, msg: str) -> None:
         line = f"{time.strftime('%H:%M:%S')} [rank {self.rank}] {msg}"
-        with open(self.path, "a") as fh:
-            fh.write(line + "\n")
+        try:
+            with open(self.path, "a") as fh:
+                fh.write(line + "\n")
+        except OSError as err:  # the log is a record, not a collective: a failure never stops one rank alone
+            if not getattr(self, "failed", False):
+                self.failed = True
+                print(f"fricfem sweep: warning: {self.path}: cannot append: {err.strerror or err}; progress "
+                      f"continues without the log", file=sys.stderr, flush=True)
         if self.rank == 0 and not self.quiet:
             print(line, file=sys.stderr, flush=True)
 
@@ -374,6 +384,73 @@ def _on_root(comm, fn, what: str):
     return comm.bcast(value, root=0)
 
 
+#: The files rank 0 writes at the top of a map's directory (checked before any point runs).
+MAP_FILES = ("modemap.json", "modemap.json.tmp", "modemap.png")
+LOG_FILE = "sweep.log"
+
+
+def _reason(err: OSError) -> str:
+    return err.strerror or str(err)
+
+
+def _writable_file(path: Path) -> None:
+    """A file the sweep will write: not a directory or other non-regular file, and its
+    folder writable (tried, not guessed: a read-only mount, a full quota)."""
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        what = "a directory" if path.is_dir() and not path.is_symlink() else \
+            "a symbolic link" if path.is_symlink() else "not a regular file"
+        raise SceneError(f"{str(path)!r}: is {what}, where the sweep writes its file {path.name}; remove it or "
+                         f"choose another --out")
+
+
+def _preflight(out: Path, variants: bool):
+    """Rank 0, before any point runs: the sweep directory made, locked (as a run
+    directory is: :class:`fricfem.output.directory.Lock`, so a second sweep into it
+    stops at once), and every path the sweep writes usable — ``sweep.log``
+    appendable, ``modemap.json``/``.png`` of every map and ``modemap_variants.png``
+    not in the way.  Returns the lock; a :class:`SceneError` naming the path."""
+    from .output.directory import LOCK_FILE, Lock
+
+    if out.is_symlink() and not out.exists():
+        raise SceneError(f"--out {str(out)!r}: a dangling symbolic link (to {os.readlink(out)!r})")
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"--out {str(out)!r}: exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise SceneError(f"--out {str(out)!r}: cannot make the directory: {_reason(err)}") from None
+    lock = Lock(out / LOCK_FILE)
+    lock.acquire(out)  # a RunDirError (a SceneError) names the sweep that holds it
+    try:
+        dirs = [out] + ([out / name for name in VARIANTS] if variants else [])
+        for d in dirs:
+            if d.exists() and not d.is_dir():
+                raise SceneError(f"{str(d)!r}: is not a directory, where the sweep writes a map")
+            for name in MAP_FILES:
+                _writable_file(d / name)
+            if (d / "points").exists() and not (d / "points").is_dir():
+                raise SceneError(f"{str(d / 'points')!r}: is not a directory, where the sweep runs its points")
+        if variants:
+            _writable_file(out / "modemap_variants.png")
+        log = out / LOG_FILE
+        _writable_file(log)
+        for d in dirs:
+            try:
+                d.mkdir(parents=True, exist_ok=True)
+                probe = d / f".modemap.json.{os.getpid()}.probe"
+                probe.write_text("")
+                probe.unlink()
+                with open(log, "a"):
+                    pass
+            except OSError as err:
+                raise SceneError(f"--out {str(out)!r}: cannot write there: {_reason(err)} "
+                                 f"({err.filename or d})") from None
+    except BaseException:
+        lock.release()
+        raise
+    return lock
+
+
 def run_round(pool, spec: dict, log, select=None, note: str = "") -> tuple:
     """Plan (rank 0), then run the points not yet complete on the pool (collective):
     ``(maps, points, todo, results)``; results on rank 0 only."""
@@ -409,17 +486,23 @@ def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, v
             "sets": list(sets or ()), "preset": preset, "variants": variants, "overwrite": overwrite,
             "rerun_stopped": rerun_stopped,
             "planned": planned if comm.rank == 0 else None}
-    log = _Log(spec["out"] / "sweep.log", comm.rank, quiet)
-    with batch.Pool(comm, ranks_per_scene, reuse=reuse) as pool:
-        if adaptive is None:
-            maps, points, _, results = run_round(pool, spec, log)
-            refined = None
-        else:
-            from .adaptive import run_adaptive
+    log = _Log(spec["out"] / LOG_FILE, comm.rank, quiet)
+    held = []  # rank 0: the sweep directory's lock
+    _on_root(comm, lambda: held.append(_preflight(spec["out"], variants)), "preparing --out failed")
+    try:
+        with batch.Pool(comm, ranks_per_scene, reuse=reuse) as pool:
+            if adaptive is None:
+                maps, points, _, results = run_round(pool, spec, log)
+                refined = None
+            else:
+                from .adaptive import run_adaptive
 
-            maps, points, results, refined = run_adaptive(pool, spec, log, adaptive)
-    return _on_root(comm, lambda: _collect(maps, points, results, spec, label, comm.size, t0, refined),
-                    "writing the map failed")
+                maps, points, results, refined = run_adaptive(pool, spec, log, adaptive)
+        return _on_root(comm, lambda: _collect(maps, points, results, spec, label, comm.size, t0, refined),
+                        "writing the map failed")
+    finally:
+        for lock in held:
+            lock.release()
 
 
 def _calls(path: Path, ranks: int, wall: float, recs: list) -> list:

@@ -99,6 +99,29 @@ def _check_cost(args, s, v, comm) -> tuple:
     return maps, points
 
 
+#: Longest ``--label`` (the map's title; the figure draws it in one or two lines).
+MAX_LABEL = 200
+
+
+def check_label(label: str) -> str:
+    """``--label`` if the figures can draw it: at most :data:`MAX_LABEL` characters, no control
+    characters but a line break, and any ``$...$`` valid mathtext — checked before any point runs."""
+    if len(label) > MAX_LABEL:
+        raise SceneError(f"--label: {len(label)} characters; at most {MAX_LABEL} (the map's title)")
+    bad = sorted({f"U+{ord(c):04X}" for c in label if (ord(c) < 32 and c != "\n") or 0x7f <= ord(c) < 0xa0})
+    if bad:
+        raise SceneError(f"--label {label[:40]!r}: holds control characters ({', '.join(bad[:5])})")
+    if label.replace("\\$", "").count("$") >= 2:  # matplotlib draws $...$ as mathematics
+        from matplotlib.mathtext import MathTextParser
+
+        try:
+            MathTextParser("path").parse(label)
+        except ValueError as err:
+            raise SceneError(f"--label {label!r}: its $...$ is not valid mathtext ({' '.join(str(err).split())}); "
+                             f"write \\$ for a dollar sign") from None
+    return label
+
+
 def _axes(args, comm) -> tuple:
     """The checked axes (and the adaptive map's coarse grid), or a SceneError."""
     if args.sigma0 is None and args.grid is None:
@@ -111,6 +134,8 @@ def _axes(args, comm) -> tuple:
         value = getattr(args, opt)
         if value is not None and not value.strip():
             raise SceneError(f"{'--' + opt if opt != 'scene' else 'BASE_SCENE'} {value!r}: empty")
+    if args.label is not None:
+        check_label(args.label)
     s = parse_axis(args.sigma0, "--sigma0", "MPa") if args.sigma0 is not None else DEFAULT_SIGMA0_MPA
     v = parse_axis(args.v_imp, "--v-imp", "m/s") if args.v_imp is not None else DEFAULT_V_IMP
     if args.ranks_per_scene < 1 or comm.size % args.ranks_per_scene:
@@ -144,6 +169,10 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> int:
         if comm.rank == 0:
             print(f"fricfem sweep: error: {err}", file=sys.stderr)
         return 2
+    except RuntimeError as err:  # rank 0 failed planning or writing the map: raised on every rank alike
+        if comm.rank == 0:
+            print(f"fricfem sweep: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return 1
     status_code = 0
     if comm.rank == 0:
         for name, doc in res["maps"].items():

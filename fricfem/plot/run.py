@@ -39,7 +39,25 @@ from .station import station_history
 from .tip import tip_speed
 
 
-def plot_run(rundir, times=None, out=None) -> list[Path]:
+#: Most isochromatic figures (one PNG per field snapshot) and most panels of the frame series
+#: drawn by default: a run with 1000 snapshots gets this many, evenly spaced in time (the first
+#: and the last among them), and a warning naming what was skipped; ``--max-figures 0`` lifts it.
+MAX_FIGURES = 24
+
+
+def evenly(values, limit: int) -> list:
+    """At most ``limit`` of ``values`` (sorted), evenly spaced by index, the first and last kept;
+    all of them when ``limit`` <= 0 (no limit) or they are few enough."""
+    values = list(values)
+    n = len(values)
+    if limit <= 0 or n <= limit:
+        return values
+    if limit == 1:
+        return [values[-1]]
+    return [values[round(k * (n - 1) / (limit - 1))] for k in range(limit)]
+
+
+def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> list[Path]:
     """Write every figure a run directory supports; return the PNG paths.
 
     ``times`` [s]: interface distributions and isochromatics at the stored
@@ -48,6 +66,9 @@ def plot_run(rundir, times=None, out=None) -> list[Path]:
     ``out``: output directory (default ``RUNDIR/plots``). What a run did not
     write (interface.h5, summary.json keys, fields.xdmf, pyvista) is skipped
     with a warning on the ``fricfem.output`` logger.
+    ``max_figures``: at most this many isochromatic figures and frame-series
+    panels (:data:`MAX_FIGURES`, evenly spaced; the others are named in a
+    warning); 0: every one.
     """
     rundir = Path(rundir)
     if not rundir.is_dir():
@@ -76,7 +97,7 @@ def plot_run(rundir, times=None, out=None) -> list[Path]:
             written.append(tip_speed(tip, out / "tip_speed.png", info=info))
         else:
             log.warning("no sliding tip in summary.json or interface.h5; tip_speed.png skipped")
-        written += _isochromatic_figures(rundir, out, times, info, itf)
+        written += _isochromatic_figures(rundir, out, times, info, itf, max_figures)
     return written
 
 
@@ -96,7 +117,18 @@ def _interface_figures(itf: InterfaceFile, out: Path, times, info: RunInfo, summ
     return written
 
 
-def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf) -> list[Path]:
+def _capped(what: str, times, limit: int) -> list:
+    """``times`` [s] cut to ``limit`` evenly spaced (:func:`evenly`), with a warning saying what was skipped."""
+    chosen = evenly(sorted(times), limit)
+    if len(chosen) < len(times):
+        log.warning("%d %s: drew %d evenly spaced (%.3g … %.3g µs), skipped %d; pass --max-figures 0 for every "
+                    "one, or --times to choose", len(times), what, len(chosen), chosen[0] * 1e6, chosen[-1] * 1e6,
+                    len(times) - len(chosen))
+    return chosen
+
+
+def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf,
+                          max_figures: int = MAX_FIGURES) -> list[Path]:
     fields = rundir / FIELDS_FILE
     if not fields.is_file():
         log.warning("%s: absent (the scene wrote no fields); isochromatics skipped", fields)
@@ -105,18 +137,23 @@ def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf) ->
         log.warning("pyvista is not installed; isochromatics skipped")
         return []
     try:  # a run killed or stopped before its first snapshot lists none
-        if len(FieldReader(fields).times) == 0:
+        reader = FieldReader(fields)
+        if len(reader.times) == 0:
             log.warning("%s: no snapshot written yet; isochromatics skipped", fields)
             return []
     except (OSError, ValueError, KeyError) as err:
         log.warning("%s: not readable (%s); isochromatics skipped", fields, err)
         return []
+    # one figure per snapshot (or per snapshot nearest a time asked for), at most max_figures of them
+    stored = [float(reader.times[i]) for i in sorted(set(reader.nearest(times)))]
+    times = _capped("isochromatic figures (snapshots)", stored, max_figures)
     # the scene's specimen thickness and fringe constant; its camera frames as one series
     photo = read_summary(rundir).get("photoelastic") or {}
     optics = {"thickness": photo.get("thickness_m") or THICKNESS, "f_sigma": photo.get("f_sigma_N_per_m") or F_SIGMA}
     written = isochromatics(fields, out, times=times, info=info, itf=itf, **optics)
     if photo.get("frames_s"):
-        series = frame_series(fields, out / "isochromatics_frames.png", photo["frames_s"], info=info, itf=itf, **optics)
+        frames = _capped("camera frames in the frame series", photo["frames_s"], max_figures)
+        series = frame_series(fields, out / "isochromatics_frames.png", frames, info=info, itf=itf, **optics)
         written += [series] if series else []
     return written
 
@@ -143,6 +180,9 @@ def main(argv=None) -> int:
     parser.add_argument("rundir", help="directory written by `fricfem run`")
     parser.add_argument("--times", help="comma-separated times in µs (nearest stored ones are used)")
     parser.add_argument("--out", help="output directory (default RUNDIR/plots)")
+    parser.add_argument("--max-figures", type=int, default=MAX_FIGURES, metavar="N",
+                        help=f"at most N isochromatic figures and frame-series panels, evenly spaced in time "
+                             f"(default {MAX_FIGURES}; 0: every snapshot)")
     args = parser.parse_args(argv)
     if _mpi_rank() != 0:  # under mpirun only rank 0 draws
         return 0
@@ -153,10 +193,13 @@ def main(argv=None) -> int:
     except ValueError:
         print(f"fricfem plot: error: --times {args.times!r}: expected numbers in µs, e.g. 22,32", file=sys.stderr)
         return 2
+    if args.max_figures < 0:
+        print(f"fricfem plot: error: --max-figures {args.max_figures}: must be >= 0 (0: no limit)", file=sys.stderr)
+        return 2
     if not logging.getLogger().handlers:
         logging.basicConfig(level=logging.WARNING, format="fricfem plot: %(message)s")
     try:
-        paths = plot_run(args.rundir, times=times, out=args.out)
+        paths = plot_run(args.rundir, times=times, out=args.out, max_figures=args.max_figures)
     except (FileNotFoundError, ValueError, KeyError) as err:
         print(f"fricfem plot: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2

@@ -187,6 +187,34 @@ def step_bracket(mat, hx: float, hy: float, hy1: float, Cn: float, Cs: float) ->
     return max(centre, corner), high
 
 
+def steel(exp, ys) -> tuple:
+    """(cells, nodes, largest element λ) of the experiment's steel bodies
+    (:mod:`fricfem.model.bodies`): the buffer spans the plate's x2 lines ``ys``,
+    the projectile those within its diameter, both at ``steel_dx`` along x1, two
+    triangles a cell, the buffer's last column the plate's own nodes.  The λ is
+    the larger of the two triangles of the narrowest steel cell (steel_dx × the
+    smallest x2 spacing) with its lumped mass; the bodies' thickness factors scale
+    stiffness and mass alike, so they leave it unchanged."""
+    from ..model.bodies import _steel_axis
+
+    nb = len(_steel_axis(-exp.buffer_length, 0.0, exp.steel_dx)) - 1
+    n_p = len(_steel_axis(-exp.buffer_length - exp.projectile_length, -exp.buffer_length, exp.steel_dx)) - 1
+    ny = len(ys) - 1
+    ny_p = int(np.count_nonzero(ys < exp.projectile_diameter * (1 + 1e-12)) - 1)  # rows below its diameter
+    cells = float(nb * ny + n_p * ny_p)
+    nodes = float(nb * (ny + 1) + (n_p + 1) * (ny_p + 1))
+    hx = min(exp.buffer_length / nb, exp.projectile_length / n_p)
+    hy = float(np.diff(ys).min())
+    mat = exp.steel()
+    lam = 0.0
+    with np.errstate(all="ignore"):
+        for tri in (((0.0, 0.0), (hx, 0.0), (hx, hy)), ((0.0, 0.0), (hx, hy), (0.0, hy)),
+                    ((0.0, 0.0), (hx, 0.0), (0.0, hy)), ((hx, 0.0), (hx, hy), (0.0, hy))):
+            ke, area = _triangle_k(np.array(tri), mat)
+            lam = max(lam, float(np.linalg.eigvalsh(ke).max()) / (mat.rho * area / 3.0))
+    return cells, nodes, lam
+
+
 def estimate(scene) -> Estimate:
     """The size, step and cost of a validated scene's run (no mesh built)."""
     spec = scene.mesh
@@ -201,6 +229,12 @@ def estimate(scene) -> Estimate:
             lam_low, lam_high = step_bracket(scene.material, hx, hy, float(ys[1] - ys[0]), *springs)
         except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
             lam_low = lam_high = math.inf
+    exp = getattr(scene, "experiment", None)
+    if exp is not None:  # the steel buffer and projectile: their cells, nodes and stiffest triangle
+        cells, extra, lam_steel = steel(exp, ys)
+        quads, nodes = quads + cells, nodes + extra
+        hx = min(hx, exp.steel_dx)
+        lam_low, lam_high = max(lam_low, lam_steel / 2.0), max(lam_high, lam_steel)
     crit = tuple(2.0 / math.sqrt(lam) if 0 < lam < math.inf else 0.0 for lam in (lam_high, lam_low))
     if scene.dt:
         dt_low = dt_high = scene.dt

@@ -40,8 +40,9 @@ def _loading_keys() -> dict:
     pulse = keys_of(ImpactPulse)
     return {
         "sigma0": Key(NUM, 6e6, "Pa", 1.0, 1e9, "initial compression Σ0 (> 0: every law's strength is "
-                      "proportional to it; docs/scenes.md)"),
-        **{k: pulse[k] for k in ("v_imp", "t_rise", "t_hold_end", "t_fall")},
+                      "proportional to it; docs/scenes.md)", band=(1e4, 1e9)),
+        "v_imp": pulse["v_imp"]._replace(band=(0.1, 1e3)),
+        **{k: pulse[k] for k in ("t_rise", "t_hold_end", "t_fall")},
         "symmetric": Key(bool, False, doc="strike both plates (|x2| <= b)"),
         **{k: pulse[k] for k in ("direction", "kind", "impedance")},
     }
@@ -61,10 +62,11 @@ SCHEMA = {
              "absorbing": Key(list, [], doc="outer edges with absorbing dashpots (ρc_l normal, ρc_s "
                                             f"tangential), any of {', '.join(map(repr, OUTER))}; the "
                                             "others are traction-free")},
-    "material": keys_of(Material),
+    "material": {**keys_of(Material), "E": keys_of(Material)["E"]._replace(band=(1e6, 1e12))},
     "loading": _loading_keys(),
     # the paper's experiment: steel buffer bonded to the struck edge, steel projectile (fricfem.model.bodies)
-    "experiment": keys_of(Experiment),
+    "experiment": {**keys_of(Experiment),
+                   "projectile_speed": keys_of(Experiment)["projectile_speed"]._replace(band=(0.1, 1e3))},
     "interface": {
         "kind": Key(str, "elastic", doc="'elastic' (the paper's: springs C_n, C_s at the Gauss points) or "
                                         "'rigid' (split-node pairs, no spring: the traction from the pairs' "
@@ -156,6 +158,8 @@ SCHEMA = {
 def _key_line(name: str, k: Key) -> str:
     unit = f" {k.unit}" if k.unit else ""
     rng = f" {k.range_text()}" if k.range_text() else ""
+    if k.band:
+        rng += f" (plausible {k.band[0]:g} … {k.band[1]:g}{unit}: warned outside)"
     choices = f" one of {', '.join(map(repr, k.choices))}" if k.choices else ""
     return f"{name} = {k.default!r}{unit}{rng}{choices}: {k.doc}"
 

@@ -56,6 +56,8 @@ _IDENT = re.compile(r"[A-Za-z0-9_.\-]+")
 SLIP_DISTANCES = ("Dc", "L0", "L1", "L2", "L")
 #: A slip distance above this fraction of the plate gets a warning (slips in a plate are far shorter).
 SLIP_SCALE_WARN = 0.01
+#: Loading keys of the edge pulse, which an [experiment] scene (its projectile loads the specimen) does not use.
+EXPERIMENT_UNUSED = ("t_rise", "t_hold_end", "t_fall", "direction", "kind", "impedance")
 #: A cohesive / process zone resolved by fewer cells than this gets a warning.
 ZONE_CELLS = 3.0
 
@@ -454,6 +456,13 @@ def validate(raw: dict) -> Scene:
                                                float(ld["v_imp"]), ld["symmetric"])
     except ValueError as err:
         raise SceneError(str(err)) from None
+    if experiment is not None:
+        unused = [k for k in EXPERIMENT_UNUSED if k in (raw.get("loading") or {})]
+        if unused:
+            raise SceneError(f"{', '.join('loading.' + k for k in unused)}: not used with an [experiment] "
+                             f"(experiment.projectile_speed = {experiment.projectile_speed!r} m/s: the steel "
+                             f"projectile loads the specimen, not the loading section's edge pulse); remove "
+                             f"{'it' if len(unused) == 1 else 'them'}")
     law, params, regions = _friction(sec["friction"], spec.length, x1)
     profiles = _profiles(sec["friction"], params, regions, spec.length)
     itf = sec["interface"]
@@ -493,4 +502,18 @@ def validate(raw: dict) -> Scene:
         initial_state=sec["friction"]["initial_state"], experiment=experiment,
     )
     _time_rules(scene)
-    return scene._replace(warnings=tuple(_scale_warnings(law, params, spec, mat, scene.sigma0)))
+    return scene._replace(warnings=tuple(_band_warnings(sec) + _scale_warnings(law, params, spec, mat,
+                                                                                scene.sigma0)))
+
+
+def _band_warnings(sec: dict) -> list:
+    """A warning per key whose value lies outside its plausible band (:attr:`fricfem.keys.Key.band`:
+    a likely unit slip, e.g. loading.sigma0 = 10 meant in MPa), with the value it was likely meant to be."""
+    out = []
+    for name, keys in SCHEMA.items():
+        for key, k in keys.items():
+            if k.band and name in sec:
+                w = k.implausible(f"{name}.{key}", sec[name].get(key))
+                if w:
+                    out.append(w)
+    return out
