@@ -341,7 +341,7 @@ def main(argv=None) -> int:
     p.add_argument("--force", action="store_true",
                    help="run a scene whose estimated cost is above the budget (docs/scenes.md)")
     p.set_defaults(func=_run)
-    p = sub.add_parser("plot", help="figures of a run directory")
+    p = sub.add_parser("plot", help="figures of a run directory (of a sweep directory: its mode map)")
     p.add_argument("rundir")
     p.add_argument("--times", help="comma-separated times in µs for the interface distributions")
     p.add_argument("--out", help="figure directory (default RUNDIR/plots)")

@@ -430,3 +430,54 @@ def test_interface_panel_b_draws_the_rate_of_shear_traction_whatever_the_step(tm
         curves.append(line.get_ydata())
     np.testing.assert_allclose(curves[0], curves[1], rtol=1e-12, atol=1e-12)
 
+def test_station_legend_leaves_the_panel_and_its_letter_clear(run_plots, tmp_path, monkeypatch):
+    """The tractions legend of panel (c) lies outside the panel, so it covers neither the
+    T_s and T_n curves nor the "(c)" label (with loc="best" it hid the label)."""
+    from fricfem.plot import station
+
+    figures = _keep_figures(monkeypatch, station)
+    rundir, _ = run_plots
+    with rd.open_interface(rundir) as itf:
+        st = itf.stations()["x16p1"]
+    station.station_history(st, tmp_path / "station.png", info=rd.run_info(rundir))
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = figures["station.png"]
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    ax = fig.axes[2]
+    legend = ax.get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == [quantities.label("shear_traction"),
+                                                          quantities.label("normal_traction")]
+    box = legend.get_window_extent(renderer)
+    (letter,) = [t for t in ax.texts if t.get_text() == "(c)"]
+    assert not box.overlaps(letter.get_window_extent(renderer))
+    assert box.x0 >= ax.get_window_extent(renderer).x1  # right of the panel, off the curves
+    assert box.x1 <= fig.bbox.x1  # and inside the saved figure
+
+
+def test_interface_host_curves_are_drawn_over_their_twins(run_plots, tmp_path, monkeypatch):
+    """In the twin-axis panels (a)–(c) the left-axis (blue) curve is drawn above the right-axis
+    (red) one, so where they coincide (Case I's panel (b): Δu̇_s and Ṫ_s) the blue stays visible;
+    each panel letter sits on the top axes of its panel."""
+    from matplotlib.colors import same_color
+
+    from fricfem.plot import interface
+
+    figures = _keep_figures(monkeypatch, interface)
+    rundir, _ = run_plots
+    with rd.open_interface(rundir) as itf:
+        interface.interface_distributions(itf, [itf.time[-1]], tmp_path / "i.png", info=rd.run_info(rundir))
+    fig = figures["i.png"]
+    hosts, twins = fig.axes[:4], fig.axes[4:]
+    assert len(twins) == 3
+    for k, (host, twin) in enumerate(zip(hosts, twins)):
+        assert np.allclose(host.get_position().bounds, twin.get_position().bounds)
+        assert host.get_zorder() > twin.get_zorder() and not host.patch.get_visible()
+        assert same_color(host.lines[0].get_color(), "C0") and same_color(twin.lines[0].get_color(), "C3")
+        assert any(t.get_text() == f"({'abc'[k]})" for t in host.texts)
+        if k:  # (b), (c): the twin's curve wide and pale under the host's, visible where they coincide
+            assert twin.lines[0].get_linewidth() >= 2 * host.lines[0].get_linewidth()
+            assert twin.lines[0].get_alpha() < 1
+        assert not any(t.get_text().startswith("(") for t in twin.texts)

@@ -55,8 +55,9 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
         ax.legend(handles=[Line2D([], [], color="k", ls=s, label=f"t = {tk * 1e6:.3g} µs")
                            for s, tk in zip(styles, t)], loc="upper right", fontsize=8, framealpha=0.8)
 
-        tops = [axr, _twin_panel(axes[1], x, sign, q, "jump_rate_s", "shear_traction_increment", mk,
-                                 dt=_step(itf))]
+        _host_on_top(ax, axr)
+        tops = [ax, _twin_panel(axes[1], x, sign, q, "jump_rate_s", "shear_traction_increment", mk,
+                                dt=_step(itf))]
         if full:
             tops.append(_twin_panel(axes[2], x, sign, q, "normal_traction", "mu_app", mk))
             _slip_panel(axes[3], x, sign, q, mk)
@@ -64,7 +65,7 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
         _draw_regions(axes, region_spans(itf.file, itf.x1), xlim)
         c_l = info.speeds.get("c_l")
         for k, a in enumerate(axes):
-            panel_letter(tops[k], k)  # on the twin axes, which are drawn over the host's lines
+            panel_letter(tops[k], k)  # on the axes drawn last (the host, over its twin)
             if k != 2:  # T_n > 0: no zero line squeezing panel (c)
                 a.axhline(0.0, color="0.6", lw=0.5)
             if c_l:
@@ -121,7 +122,7 @@ RATE_UNIT = (1e-12, "MPa/µs")
 
 def _twin_panel(ax, x, sign, q, left: str, right: str, mk, dt: float | None = None):
     """``left`` on the left axis (C0), ``right`` on a twin right axis (C3), at one
-    time; returns the twin axes.  The step's shear-traction increment dT_s is drawn as
+    time, the left one drawn on top; returns the left (top) axes.  The step's shear-traction increment dT_s is drawn as
     the rate Ṫ_s = dT_s/dt [MPa/µs] when the step ``dt`` [s] is known (it then does not
     depend on dt, nor switch units between runs), else per step with its unit."""
     def scaled(name):
@@ -141,12 +142,22 @@ def _twin_panel(ax, x, sign, q, left: str, right: str, mk, dt: float | None = No
             a.text(0.5, 0.5, f"no {name} in interface.h5", transform=a.transAxes, ha="center")
             continue
         v, unit = scaled(name)
-        a.plot(x, v, color, lw=1.2, **mk)
+        # the twin's (red) curve wide and pale under the host's (blue): where they coincide (in stick
+        # Ṫ_s = C_s Δu̇_s, Case I's panel (b)) both remain visible, red edging blue
+        a.plot(x, v, color, **({"lw": 1.2} if a is ax else {"lw": 3.0, "alpha": 0.5}), **mk)
         text = label(name, sign)
         if name == "shear_traction_increment":
             text = (r"$-\dot T_s$" if sign < 0 else r"$\dot T_s$") if dt else text + " per step"
         color_axis(a, color, text + unit)
-    return axr
+    _host_on_top(ax, axr)
+    return ax
+
+
+def _host_on_top(ax, twin) -> None:
+    """Draw the host axes' (blue, left-axis) lines over the twin's (red): where the two curves
+    coincide the blue one stays visible; the host's background is left out so the twin shows."""
+    ax.set_zorder(twin.get_zorder() + 1)
+    ax.patch.set_visible(False)
 
 
 def _slip_panel(ax, x, sign, q, mk) -> None:

@@ -29,7 +29,8 @@ def station_history(station: Station, path, *, info: RunInfo | None = None, sign
         if name == "shear_traction" and "normal_traction" in d:
             ax.plot(t, d["normal_traction"] / 1e6, "0.35", ls="--", lw=1.0, label=label("normal_traction"))
             ax.set_ylabel("tractions [MPa]")
-            ax.legend(loc="best", fontsize=8)
+            # outside the panel, right of it: never over the curves or the panel letter
+            ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), borderaxespad=0.0, fontsize=8, frameon=False)
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.grid(alpha=0.25)
         panel_letter(ax, k)
