@@ -89,6 +89,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fricfem import compat
 from fricfem.model import assembly
 from fricfem.model import mesh as mesh_mod
 from fricfem.model.build import Impact
@@ -194,7 +195,7 @@ class Plates:
             F.append(self._assemble(ufl.inner(body, w) * dx + ufl.inner(sigma(Uk) * nrm, w) * ds))
             S.append(self._assemble(ufl.inner(sigma(Uk), ufl.sym(ufl.grad(w))) * dx))  # a(U_k, N)
             fn = fem.Function(V)
-            fn.interpolate(fem.Expression(Uk, V.element.interpolation_points()))
+            fn.interpolate(fem.Expression(Uk, compat.interpolation_points(V)))
             U.append(fn.x.array[: self.n_owned].copy())
         self.F, self.S, self.U = np.array(F), np.array(S), np.array(U)  # [k, owned dofs]
 
