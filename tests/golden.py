@@ -5,12 +5,38 @@ A fingerprint holds the SHA-256 of every array a run writes (interface.h5,
 fields.h5) and of the summary's numbers, so equal fingerprints mean equal bits.
 Only the physics counts: datasets and result numbers, not file
 attributes (units, format versions) or where the mode's evidence is kept.
-The energy history is the exception: it is summed with BLAS (``np.dot``),
-whose order of summation depends on the processor, so it is kept as numbers
-and compared to 1e-12 relative.
+Nothing a fingerprint holds passes through BLAS or LAPACK: λmax (and so
+``dt_crit_s``), the energies and the field stress are summed or solved in an
+order of fricfem's own (``fricfem.kernels.reduce``,
+``fricfem.output.gauges.inverse_2x2``), so the same bits come out under
+reference BLAS or OpenBLAS on any processor (tests/test_blas.py runs this check
+under each).  The energy history is kept as numbers: bit-exact in exact mode
+(:data:`ENERGY_RTOL` = 0; it was 1e-12 while its dot products went through
+BLAS), within 1e-9 of its scale (the largest energy) in tolerance mode.
+
+Two modes of comparison:
+
+* ``exact`` (dolfinx 0.5.2 to 0.9, where the datasets are bit-identical): every
+  SHA-256 digest must match.  Never loosened.
+* ``tolerance`` (dolfinx >= 0.10, whose assembly and mesh code round
+  differently: 13 of 37 datasets of the coarse Case I differ, e.g. the shear
+  traction by 1.5e-11 of 1.85e5): a dataset whose digest differs passes if its
+  shape, its count of non-finite values and its *scale numbers* agree within
+  :data:`TOLERANCE` = 1e-9 relative to the dataset's scale s = max |a|: s
+  itself, the root mean square / s and :data:`N_PROJECTIONS` projections
+  Σ r_i a_i / (s n) on fixed-seed random r_i in [-1, 1] (each moves by at most
+  the largest |Δa_i| / s, so round-off within 1e-9 of s always passes; a
+  change of 1e-6 of s in a whole dataset never does).  The summary's results
+  are compared the same way, key by key (numbers within 1e-9 of each key's
+  scale; strings, flags and counts exactly); the energies within 1e-9.
+
+The mode is chosen automatically from the installed dolfinx (``tolerance``
+from 0.10 on); ``FRICFEM_GOLDEN=exact`` or ``FRICFEM_GOLDEN=tolerance`` (or
+``--tolerance`` / ``--exact`` after ``check``) force one.
 
     mpirun -n 2 .venv/bin/python tests/golden.py record     # after a deliberate change of results
     mpirun -n 2 .venv/bin/python tests/golden.py check      # what tests/test_golden.py does
+    mpirun -n 2 .venv/bin/python tests/golden.py check case3 --tolerance
 
 Recording overwrites ``tests/golden/*.json``; say in the commit why results changed.
 """
@@ -19,6 +45,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -39,7 +66,84 @@ CASES = {
 #: evidence is stored are not); the mode counts by its label
 SUMMARY_KEYS = ("steps", "t_s", "dt_s", "dt_crit_s", "dofs", "interface_points", "complete", "initiation",
                 "tip", "fronts", "watchdog", "ended_early")
-ENERGY_RTOL = 1e-12
+#: exact mode: the energies' tolerance relative to their scale (0: bit-exact; their sums are fricfem's own)
+ENERGY_RTOL = 0.0
+#: tolerance mode: the relative tolerance on each dataset's scale numbers (see the module docstring)
+TOLERANCE = 1e-9
+#: tolerance mode: the number of fixed-seed random projections kept per dataset
+N_PROJECTIONS = 4
+#: the environment variable that forces a mode ("exact" or "tolerance")
+MODE_ENV = "FRICFEM_GOLDEN"
+
+
+def default_mode() -> str:
+    """``exact`` or ``tolerance``: :data:`MODE_ENV` if set, else ``tolerance``
+    from dolfinx 0.10 on (round-off differs there) and ``exact`` before."""
+    forced = os.environ.get(MODE_ENV, "").strip().lower()
+    if forced:
+        if forced not in ("exact", "tolerance"):
+            raise SystemExit(f"{MODE_ENV} = {forced!r}: must be 'exact' or 'tolerance'")
+        return forced
+    import dolfinx
+
+    major_minor = tuple(int(p) for p in dolfinx.__version__.split(".")[:2])
+    return "tolerance" if major_minor >= (0, 10) else "exact"
+
+
+def scale_numbers(a) -> dict:
+    """The numbers tolerance mode compares for one array (see the module docstring):
+    shape, count of non-finite values, scale s = max |a| over the finite values,
+    rms / s and :data:`N_PROJECTIONS` projections Σ r_i a_i / (s n)."""
+    shape = list(np.shape(a))
+    a = np.asarray(a, dtype=np.float64).ravel()
+    finite = np.isfinite(a)
+    v = np.where(finite, a, 0.0)
+    n = max(len(v), 1)
+    s = float(np.max(np.abs(v))) if len(v) else 0.0
+    d = s if s > 0.0 else 1.0
+    rng = np.random.default_rng(20261128)
+    proj = [float(np.sum(rng.uniform(-1.0, 1.0, len(v)) * v) / (d * n)) for _ in range(N_PROJECTIONS)]
+    return {"shape": shape, "nonfinite": int(len(a) - finite.sum()), "scale": s,
+            "rms": float(np.sqrt(np.sum((v / d) ** 2) / n)), "proj": proj}
+
+
+def _numbers_close(g: dict, w: dict) -> bool:
+    """Tolerance mode: two :func:`scale_numbers` agree (see the module docstring)."""
+    if g["shape"] != w["shape"] or g["nonfinite"] != w["nonfinite"]:
+        return False
+    s = max(abs(g["scale"]), abs(w["scale"]))
+    if abs(g["scale"] - w["scale"]) > TOLERANCE * s:
+        return False
+    return all(abs(x - y) <= TOLERANCE for x, y in zip([g["rms"], *g["proj"]], [w["rms"], *w["proj"]]))
+
+
+def _leaves(obj, numbers: list, others: list) -> None:
+    """Split a JSON value into its numbers (in order) and everything else (flags,
+    strings, None, the structure's keys and lengths)."""
+    if isinstance(obj, dict):
+        for k in sorted(obj):
+            others.append(k)
+            _leaves(obj[k], numbers, others)
+    elif isinstance(obj, (list, tuple)):
+        others.append(len(obj))
+        for v in obj:
+            _leaves(v, numbers, others)
+    elif isinstance(obj, float) or (isinstance(obj, int) and not isinstance(obj, bool)):
+        numbers.append(float(obj))
+        others.append(type(obj).__name__)
+    else:
+        others.append(obj)
+
+
+def _result_numbers(results: dict) -> dict:
+    """Per summary key: the scale numbers of its numbers and a digest of the rest."""
+    out = {}
+    for k in sorted(results):
+        numbers, others = [], []
+        _leaves(results[k], numbers, others)
+        out[k] = {"numbers": scale_numbers(numbers),
+                  "rest": hashlib.sha256(json.dumps(others).encode()).hexdigest()}
+    return out
 
 
 def _digest(a) -> str:
@@ -50,23 +154,23 @@ def _digest(a) -> str:
     return h.hexdigest()
 
 
-def _run_digests(rundir: Path) -> dict:
-    """Digests of everything the run-directory reader returns (fricfem.open_run):
-    the interface rows, every quantity, the station histories."""
+def _run_arrays(rundir: Path) -> dict:
+    """Everything the run-directory reader returns (fricfem.open_run): the
+    interface rows, every quantity, the station histories."""
     from fricfem import open_run
 
     r = open_run(rundir)
-    out = {"time": _digest(r.t), "x1": _digest(r.x1)}
+    out = {"time": r.t, "x1": r.x1}
     for name in r.names:
-        out[name] = _digest(r.quantity(name))
+        out[name] = r.quantity(name)
     for st, data in r.stations.items():
         for q, v in data.items():
-            out[f"stations/{st}/{q}"] = _digest(np.asarray(v))
+            out[f"stations/{st}/{q}"] = np.asarray(v)
     return out
 
 
-def _field_digests(rundir: Path) -> dict:
-    """Digests of every field snapshot as the field reader returns it."""
+def _field_arrays(rundir: Path) -> dict:
+    """Every field snapshot as the field reader returns it."""
     from fricfem.output.quantities import FIELDS, FIELDS_FILE
     from fricfem.output.rundir import FieldReader
 
@@ -77,7 +181,7 @@ def _field_digests(rundir: Path) -> dict:
     for name in FIELDS:
         reader = FieldReader(path, name)
         for i, t in enumerate(reader.times):
-            out[f"{name}@{t:.9e}"] = _digest(reader.values(i))
+            out[f"{name}@{t:.9e}"] = reader.values(i)
     return out
 
 
@@ -98,10 +202,15 @@ def fingerprint(rundir: Path) -> dict:
     results.update({k: evidence[k] for k in ("tip", "fronts") if k in evidence})
     results["mode"] = (summary.get("mode") or {}).get("label")
     energy = summary.get("energy") or {}
+    run, fields = _run_arrays(rundir), _field_arrays(rundir)
     return {
-        "interface.h5": _run_digests(rundir),
-        "fields.h5": _field_digests(rundir),
+        "interface.h5": {k: _digest(v) for k, v in run.items()},
+        "fields.h5": {k: _digest(v) for k, v in fields.items()},
         "summary": hashlib.sha256(json.dumps(results, sort_keys=True).encode()).hexdigest(),
+        # what tolerance mode compares where a digest differs (see the module docstring)
+        "scale_numbers": {"interface.h5": {k: scale_numbers(v) for k, v in run.items()},
+                          "fields.h5": {k: scale_numbers(v) for k, v in fields.items()},
+                          "summary": _result_numbers(results)},
         "summary_numbers": {"steps": summary.get("steps"), "dt_s": summary.get("dt_s"),
                             "mode": (summary.get("mode") or {}).get("label"),
                             "initiation": summary.get("initiation")},
@@ -110,17 +219,34 @@ def fingerprint(rundir: Path) -> dict:
     }
 
 
-def compare(got: dict, want: dict) -> list:
-    """Differences between two fingerprints, as readable lines (empty: identical)."""
+def compare(got: dict, want: dict, mode: str = "exact") -> list:
+    """Differences between two fingerprints, as readable lines (empty: identical,
+    or in ``mode="tolerance"`` within :data:`TOLERANCE`; see the module docstring)."""
+    if mode not in ("exact", "tolerance"):
+        raise ValueError(f"mode {mode!r}: 'exact' or 'tolerance'")
+    tol = mode == "tolerance"
+    gnum, wnum = got.get("scale_numbers", {}), want.get("scale_numbers", {})
+    if tol and not wnum:
+        return ["the golden has no scale numbers for tolerance mode: record it again (tests/golden.py record)"]
     bad = []
     for key in ("interface.h5", "fields.h5"):
         g, w = got.get(key, {}), want.get(key, {})
         for name in sorted(set(g) | set(w)):
             if g.get(name) != w.get(name):
-                bad.append(f"{key}:{name} differs" if name in g and name in w else
-                           f"{key}:{name} {'missing' if name in w else 'new'}")
+                if name in g and name in w:
+                    if not (tol and _numbers_close(gnum[key][name], wnum[key][name])):
+                        bad.append(f"{key}:{name} differs" + (f" beyond {TOLERANCE:g} of its scale" if tol else ""))
+                else:
+                    bad.append(f"{key}:{name} {'missing' if name in w else 'new'}")
     if got["summary"] != want["summary"]:
-        bad.append(f"summary results differ: {got['summary_numbers']} vs {want['summary_numbers']}")
+        far = sorted(k for k in set(gnum.get("summary", {})) | set(wnum.get("summary", {}))
+                     if k not in gnum.get("summary", {}) or k not in wnum.get("summary", {})
+                     or gnum["summary"][k]["rest"] != wnum["summary"][k]["rest"]
+                     or not _numbers_close(gnum["summary"][k]["numbers"], wnum["summary"][k]["numbers"]))
+        if not tol or far:
+            bad.append(f"summary results differ{f' beyond {TOLERANCE:g} in {far}' if tol else ''}: "
+                       f"{got['summary_numbers']} vs {want['summary_numbers']}")
+    energy_rtol = TOLERANCE if tol else ENERGY_RTOL
     for src in ("energy_history", "energy_summary"):
         g, w = got.get(src, {}), want.get(src, {})
         # an energy term added after the golden was recorded must be zero in it
@@ -135,8 +261,8 @@ def compare(got: dict, want: dict) -> list:
                      if k != "time" and np.size(v)] + [1e-300])
         for k in w:
             a, b = np.asarray(g[k], dtype=float), np.asarray(w[k], dtype=float)
-            if a.shape != b.shape or (a.size and np.max(np.abs(a - b)) > ENERGY_RTOL * scale):
-                bad.append(f"{src}.{k} differs beyond {ENERGY_RTOL:g} relative")
+            if a.shape != b.shape or (a.size and not np.max(np.abs(a - b)) <= energy_rtol * scale):
+                bad.append(f"{src}.{k} differs" + (f" beyond {energy_rtol:g} relative" if energy_rtol else ""))
     return bad
 
 
@@ -163,14 +289,54 @@ def run_case(name: str, out_root: Path, comm) -> Path | None:
     return result
 
 
+def blas_in_use() -> dict:
+    """The BLAS and LAPACK this process has loaded (from /proc/self/maps: the
+    libraries the dynamic linker picked, e.g. by LD_LIBRARY_PATH, for numpy
+    and for PETSc once a run has loaded it) and, for OpenBLAS, the processor
+    kernel it runs (``openblas_get_corename``, which OPENBLAS_CORETYPE sets).
+    Imports nothing but numpy (PETSc is initialised by dolfinx, on every rank
+    alike: importing petsc4py first on one rank only corrupts the job)."""
+    import ctypes
+
+    import numpy  # noqa: F401  (loads the BLAS the process will use)
+
+    libs = set()
+    try:
+        with open("/proc/self/maps") as fh:
+            for line in fh:
+                path = line.split()[-1] if len(line.split()) >= 6 else ""
+                name = os.path.basename(path)
+                if name.startswith(("libblas", "liblapack", "libopenblas")):
+                    libs.add(os.path.realpath(path))
+    except OSError:
+        pass
+    core = None
+    for path in sorted(libs):
+        try:
+            fn = ctypes.CDLL(path).openblas_get_corename
+        except (OSError, AttributeError):
+            continue
+        fn.restype = ctypes.c_char_p
+        core = fn().decode()
+        break
+    return {"libraries": sorted(libs), "openblas_core": core}
+
+
 def main(argv) -> int:
     import tempfile
 
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
+    flags = [a for a in argv if a.startswith("--")]
+    argv = [a for a in argv if not a.startswith("--")]
     mode = argv[0] if argv else "check"
     names = argv[1:] or list(CASES)
+    unknown = [f for f in flags if f not in ("--tolerance", "--exact")] + [n for n in names if n not in CASES]
+    if mode not in ("check", "record") or unknown:
+        raise SystemExit(f"usage: golden.py [check|record] [{'|'.join(CASES)} ...] [--tolerance|--exact]"
+                         f"{f' (not {unknown})' if unknown else ''}")
+    how = "tolerance" if "--tolerance" in flags else "exact" if "--exact" in flags else default_mode()
     root = comm.bcast(tempfile.mkdtemp(prefix="fricfem-golden-") if comm.rank == 0 else None, root=0)
     status = 0
     for name in names:
@@ -184,11 +350,13 @@ def main(argv) -> int:
             path.write_text(json.dumps(fp, indent=1, sort_keys=True) + "\n")
             print(f"recorded {path}")
         else:
-            bad = compare(fp, json.loads(path.read_text()))
-            print(f"{name}: {'identical' if not bad else 'DIFFERS'}")
+            bad = compare(fp, json.loads(path.read_text()), how)
+            print(f"{name}: {'DIFFERS' if bad else 'identical' if how == 'exact' else 'within tolerance'}")
             for line in bad:
                 print(f"  {line}")
             status = status or (1 if bad else 0)
+    if comm.rank == 0:  # after the runs: the libraries numpy and PETSc actually used
+        print(f"blas: {json.dumps(blas_in_use())}; compare: {how}", flush=True)
     return comm.bcast(status, root=0)
 
 

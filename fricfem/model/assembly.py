@@ -255,27 +255,53 @@ def _coordinate_noise(num) -> np.ndarray:
     return np.column_stack([h, 1.0 - h]).ravel() - 0.5
 
 
+def ordered_sum(comm, local) -> np.ndarray:
+    """The ranks' partial sums ``local`` (float64[k], one set a rank) added in
+    rank order, 0, 1, 2, ...: the same bits on every rank and on every run
+    with this number of ranks (an ``Allreduce`` may add in an order of the MPI
+    library's choosing).  Collective on ``comm`` (mpi4py)."""
+    local = np.ascontiguousarray(local, dtype=np.float64)
+    parts = np.empty((comm.size, local.size))
+    comm.Allgather(local, parts)
+    total = parts[0].copy()
+    for r in range(1, comm.size):
+        total = total + parts[r]
+    return total
+
+
 def max_eigenvalue(K, mass, interface, num, iterations=500, rtol=1e-8) -> float:
     """λmax of M⁻¹(K + K_int) by power iteration with the Rayleigh quotient
-    x·(K + K_int)x / x·Mx (which converges quadratically)."""
+    x·(K + K_int)x / x·Mx (which converges quadratically).
+
+    The dot products and the norm are fricfem's own
+    (:func:`fricfem.kernels.reduce.rayleigh_sums`: each rank sums its dofs in
+    turn, :func:`ordered_sum` adds the ranks in rank order), not PETSc's
+    ``VecDot``/``VecNorm``, whose BLAS sums in an order of its processor
+    kernel: λmax, and ``dt_crit_s``, are then the same bits under any BLAS
+    on any processor (for a given number of ranks)."""
+    from ..kernels.reduce import rayleigh_sums
+
     x = K.createVecRight()
     y = K.createVecRight()
-    mx = K.createVecRight()
+    comm = x.getComm().tompi4py()
+    mass = np.ascontiguousarray(mass, dtype=np.float64)
+    sums = np.zeros(3)
     x.array[:] = _coordinate_noise(num)
     lam = 0.0
     for _ in range(iterations):
         K.mult(x, y)
         interface.add_spring_action(x, y)
-        mx.array[:] = x.array_r * mass
-        new = x.dot(y) / x.dot(mx)
-        y.array[:] /= mass  # y = M⁻¹ (K + K_int) x
-        y.scale(1.0 / y.norm())
+        ya = y.array
+        rayleigh_sums(x.array_r, ya, mass, sums)  # x·y, x·Mx, then y = M⁻¹ (K + K_int) x and |y|²
+        xy, xmx, yy = ordered_sum(comm, sums)
+        new = xy / xmx
+        ya *= 1.0 / math.sqrt(yy)
         x, y = y, x
         converged = abs(new - lam) <= rtol * new
         lam = new
         if converged:
             break
-    return lam
+    return float(lam)
 
 
 def round_down(x: float, digits: int = 3) -> float:

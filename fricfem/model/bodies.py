@@ -44,6 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..keys import field
+from ..kernels.reduce import dot
 from .material import Material
 from .mesh import MeshSpec
 
@@ -308,7 +309,7 @@ def launch(model, state) -> None:
     dofs = 2 * b.nodes
     state.v.array[dofs] = v0
     state.act[b.nodes] = np.maximum(state.act[b.nodes], 1)  # kernels.bulk.ACTIVE: computed, wakes neighbours
-    state.work_ext += 0.5 * float(np.dot(model.mass[dofs], np.full(len(dofs), v0 * v0)))
+    state.work_ext += 0.5 * dot(model.mass[dofs], np.full(len(dofs), v0 * v0))  # fixed order, not BLAS's
     p, g = b.contact.points, b.contact.geometry
     mp, mb = g.mass[0::2], g.mass[1::2]
     loss = 0.5 * (mp * mb / (mp + mb)) * v0 * v0 / g.wq  # per unit contact length [J/m²]

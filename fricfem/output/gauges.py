@@ -44,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..kernels.reduce import dot
+
 GAUGES_FILE = "gauges.h5"
 
 #: dataset -> (unit, component names, meaning); per-gauge histories, in file order.
@@ -72,13 +74,38 @@ class Located:
     vertices: np.ndarray
 
 
+def inverse_2x2(jac: np.ndarray) -> np.ndarray:
+    """J⁻¹ of each 2×2 matrix of float64[n, 2, 2], with the very operations of
+    reference LAPACK's ``dgesv`` on B = I (what ``np.linalg.inv`` calls):
+    partial pivoting (the row with the larger |J_i0|, the first on a tie),
+    l = J_10 · (1/J_00), u_11 = J_11 − l J_01, forward then back substitution.
+    So it gives the bits ``np.linalg.inv`` gives with reference LAPACK (the
+    goldens' fields), but under any LAPACK on any processor: OpenBLAS's
+    ``dgesv`` rounds differently on 58 % of random matrices, and differently
+    again by processor kernel.  Singular matrices give inf/nan, as there."""
+    a00, a01, a10, a11 = jac[:, 0, 0], jac[:, 0, 1], jac[:, 1, 0], jac[:, 1, 1]
+    swap = np.abs(a10) > np.abs(a00)
+    p00, p01 = np.where(swap, a10, a00), np.where(swap, a11, a01)  # the pivot row
+    q10, q11 = np.where(swap, a00, a10), np.where(swap, a01, a11)
+    l10 = q10 * (1.0 / p00)
+    u11 = q11 - l10 * p01
+    out = np.empty(jac.shape)
+    one, zero = np.ones(len(jac)), np.zeros(len(jac))
+    for j, (e0, e1) in enumerate(((one, zero), (zero, one))):  # the identity's columns, rows as pivoted
+        b0, b1 = np.where(swap, e1, e0), np.where(swap, e0, e1)
+        x1 = (b1 - b0 * l10) / u11
+        out[:, 1, j] = x1
+        out[:, 0, j] = (b0 - x1 * p01) / p00
+    return out
+
+
 def shape_gradients(p: np.ndarray) -> np.ndarray:
     """∂N_a/∂x_j [1/m] of the linear shape functions of each triangle:
     float64[n, 3, 2], from its vertices ``p`` float64[n, 3, 2] [m].  With
     J = [p1 − p0, p2 − p0] (columns), ∇N_1, ∇N_2 are the rows of J⁻¹, so
     ``[:, 1:]`` is J⁻¹ itself (the gauges' barycentric coordinates use it)."""
     jac = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=2)  # J[c, i, k] = ∂x_i/∂ξ_k
-    inv = np.linalg.inv(jac)  # ∇N_k = row k of J⁻¹ (k = 1, 2)
+    inv = inverse_2x2(jac)  # ∇N_k = row k of J⁻¹ (k = 1, 2)
     grad = np.empty((len(p), 3, 2))
     grad[:, 1:] = inv
     grad[:, 0] = -inv[:, 0] - inv[:, 1]
@@ -460,7 +487,7 @@ class LineGauges:
         b = self.model.bodies
         if b is not None:
             p, geo = b.contact.points, b.contact.geometry
-            extra = (np.dot(self.m, state.v.array_r[self.dofs]), self.m.sum(), float(np.dot(p.Tn, geo.wq)))
+            extra = (dot(self.m, state.v.array_r[self.dofs]), self.m.sum(), dot(p.Tn, geo.wq))  # not BLAS's order
         nodal = self.nodal.gather(state, extra)
         if nodal is None:
             return

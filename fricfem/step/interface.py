@@ -13,6 +13,7 @@ from petsc4py import PETSc
 
 from ..kernels.cache import ensure_fresh
 from ..kernels.interface import first_call, kernel_for, rigid_kernel_for, spring_kernel
+from ..kernels.reduce import dot
 
 
 
@@ -98,7 +99,7 @@ class Interface:
         closed = p.is_open == 0
         elastic = np.where(closed, 0.5 * p.Cn * p.jump_n**2, 0.0)
         elastic += np.where(p.Cs > 0, 0.5 * (p.Ts - p.Ts0) ** 2 / np.where(p.Cs > 0, p.Cs, 1.0), 0.0)
-        loc = np.array([np.dot(g.wq, p.work), np.dot(g.wq, elastic), np.dot(g.wq, p.dissipated)])
+        loc = np.array([dot(g.wq, p.work), dot(g.wq, elastic), dot(g.wq, p.dissipated)])  # fixed order, not BLAS
         tot = np.zeros(3)
         g.comm.Allreduce(loc, tot, op=MPI.SUM)
         return {"interface_work": tot[0], "interface_elastic": tot[1], "dissipated": tot[2]}
@@ -165,7 +166,7 @@ class RigidInterface:
         """Interface energies per unit thickness [J/m], summed over all ranks
         (a rigid contact stores none)."""
         p, g = self.points, self.geometry
-        loc = np.array([np.dot(g.wq, p.work), 0.0, np.dot(g.wq, p.dissipated)])
+        loc = np.array([dot(g.wq, p.work), 0.0, dot(g.wq, p.dissipated)])  # fixed order, not BLAS
         tot = np.zeros(3)
         g.comm.Allreduce(loc, tot, op=MPI.SUM)
         return {"interface_work": tot[0], "interface_elastic": tot[1], "dissipated": tot[2]}

@@ -18,6 +18,8 @@ import math
 import numpy as np
 from mpi4py import MPI
 
+from ..kernels.reduce import dot3
+
 
 def step(model, state, energy: dict | None = None) -> None:
     """Advance ``state`` by one step ``model.dt`` (collective).  If ``energy`` is
@@ -31,7 +33,7 @@ def step(model, state, energy: dict | None = None) -> None:
     state.work_ext += work
     state.absorbed += absorbed
     if energy is not None:
-        kinetic = 0.5 * float(np.dot(model.mass * v_old, state.v.array_r))
+        kinetic = 0.5 * dot3(model.mass, v_old, state.v.array_r)  # in a fixed order, not BLAS's (.kernels.reduce)
         loc = np.array([kinetic, state.work_ext, 0.5 * uku, state.absorbed])
         tot = np.zeros(4)
         model.comm.Allreduce(loc, tot, op=MPI.SUM)
