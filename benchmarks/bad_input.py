@@ -26,7 +26,9 @@ import argparse
 import json
 import math
 import os
+import shlex
 import shutil
+import signal
 import statistics
 import subprocess
 import sys
@@ -405,15 +407,30 @@ def run_case(case: dict, tmp: Path) -> dict:
         if k.startswith(("OMPI_COMM", "PMIX_", "PMI_")):
             env.pop(k)
     t0 = time.perf_counter()
+    cmd = (["mpirun", "-n", str(case["ranks"]), "--oversubscribe"] if case.get("ranks") else []) + [str(FRICFEM), *argv]
+    if case.get("ranks"):  # a job of its own: no variable of this process's MPI job
+        env = {k: v for k, v in env.items() if not k.startswith(("OMPI_", "OPAL_")) or "ALLOW_RUN_AS_ROOT" in k}
+        if os.geteuid() == 0:
+            env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     try:
-        res = subprocess.run([str(FRICFEM), *argv], capture_output=True, text=True, env=env, cwd=tmp,
-                             timeout=case.get("timeout", TIMEOUT), errors="replace")
+        if case.get("pipe"):  # stdout into `head -1`, which leaves early; the command's own status
+            res = subprocess.run(f"{' '.join(map(shlex.quote, cmd))} | head -1 >/dev/null; exit ${{PIPESTATUS[0]}}",
+                                 shell=True, executable="/bin/bash", capture_output=True, text=True, env=env,
+                                 cwd=tmp, timeout=case.get("timeout", TIMEOUT), errors="replace")
+        else:
+            res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp,
+                                 timeout=case.get("timeout", TIMEOUT), errors="replace")
         status, err = res.returncode, res.stderr
+        if case.get("pipe") and status == 141:  # SIGPIPE's status: the standard quiet end
+            status = 0
     except subprocess.TimeoutExpired as exc:
         status, err = "timeout", (exc.stderr or b"").decode(errors="replace") if isinstance(exc.stderr, bytes) \
             else (exc.stderr or "")
     seconds = time.perf_counter() - t0
     lines = [ln for ln in err.splitlines() if ln.strip()]
+    if case.get("ranks"):  # mpirun's own report of a rank's exit status, between lines of dashes
+        dashes = [k for k, ln in enumerate(lines) if set(ln.strip()) == {"-"}]
+        lines = [ln for k, ln in enumerate(lines) if not (dashes and dashes[0] <= k <= dashes[-1])]
     errors = [ln for ln in lines if ln.startswith("fricfem") and ": error:" in ln]
     traceback = any("Traceback" in ln for ln in lines)
     rundir = out.exists() and any(out.iterdir())
@@ -452,16 +469,195 @@ def run_case(case: dict, tmp: Path) -> dict:
             why = "accepted without a reason"
         elif written < asked:
             why = f"{written} of {asked} field snapshots written (fields.xdmf)"
+        elif case.get("warning") and not any(case["warning"] in ln for ln in lines if ln.startswith("fricfem")):
+            why = f"accepted wrongly: no warning {case['warning']!r}"
+        elif case.get("pipe") and lines:
+            why = f"raw error: {lines[0][:80]}"
         else:
             outcome = "accepted"
     else:
         why = f"exit {status}"
+    if case.get("verify") and outcome != "other":  # what the case's files say (data loss, work done for nothing)
+        problem = case["verify"]()
+        if problem:
+            outcome, why = "other", problem
     short = [a if len(a) <= 200 else f"{a[:180]}… ({len(a)} characters)" for a in argv]
     return {"category": case["category"], "id": case["id"], "argv": short, "outcome": outcome, "why": why,
+            "fault": fault(status, why, outcome),
             "accept": case["accept"], "status": status, "seconds": round(seconds, 3),
             "error": errors[0] if errors else None,
             "warnings": [ln for ln in lines if "warning:" in ln][:3],
             "stderr_tail": lines[-12:] if outcome == "other" else []}
+
+
+def fault(status, why: str, outcome: str) -> str | None:
+    """What kind of failure an ``other`` outcome is: crash, hang, data loss, accepted wrongly, raw error."""
+    if outcome != "other":
+        return None
+    if status == "timeout":
+        return "hang"
+    if why == "traceback" or (isinstance(status, int) and status < 0):
+        return "crash"
+    if why.startswith("data loss"):
+        return "data loss"
+    if why.startswith(("accepted", "refused a case")):
+        return "accepted wrongly"
+    return "raw error"
+
+
+#: the quick sweep the sweep cases start from: one point on the coarse mesh to 2 µs
+SWEEP = ["--preset", "coarse", "--set", "time.end=2e-6", "--quiet"]
+ONE = ["--sigma0", "6", "--v-imp", "2", *SWEEP]
+
+
+def _points(out: Path) -> list:
+    """The points with a finished run under a sweep directory."""
+    pts = out / "points"
+    return sorted(d.name for d in pts.iterdir() if (d / "summary.json").is_file()) if pts.is_dir() else []
+
+
+def _quiet(argv: list) -> None:
+    subprocess.run([str(FRICFEM), *argv], capture_output=True, text=True, timeout=900,
+                   env={**os.environ, "OMP_NUM_THREADS": "1"})
+
+
+def sweep_cases(tmp: Path) -> list:
+    """Issue 24's hostile sweeps, plot and command-line output: a damaged job.json, directories where
+    the sweep writes files, a read-only --out, an endless --label, one rank failing under 2 ranks, two
+    sweeps into one directory, swept keys spelt another way, a run with many frames, a closed pipe.
+    A case that needs a state makes it first (a finished sweep, a paused sweep, a run)."""
+    w = tmp / "sweeps"
+    w.mkdir()
+    cases = []
+
+    def case(i, argv, needle="", accept=None, **extra):
+        cases.append({"category": "sweep (issue 24)", "id": i, "argv": argv, "needle": needle, "accept": accept,
+                      **extra})
+
+    done = w / "damaged"  # a finished one-point sweep whose job.json is then [] (AttributeError while planning)
+    _quiet(["sweep", "case1", *ONE, "--out", str(done)])
+    if (done / "points" / "s6_v2").is_dir():
+        (done / "points" / "s6_v2" / "job.json").write_text("[]")
+
+    def rewritten():
+        try:
+            ok = isinstance(json.loads((done / "points" / "s6_v2" / "job.json").read_text()), dict)
+        except (OSError, ValueError):
+            ok = False
+        return None if ok else "data loss: the point's job.json was not rewritten"
+
+    case("sweep: job.json holding []", ["sweep", "case1", *ONE, "--out", str(done)],
+         accept="a damaged record counts as none: the point runs again", verify=rewritten)
+    for name in ("modemap.json", "modemap.png", "sweep.log"):
+        out = w / name.replace(".", "_")
+        (out / name).mkdir(parents=True)
+        case(f"sweep: {name} is a directory", ["sweep", "case1", *ONE, "--out", str(out)], name,
+             verify=lambda out=out: f"data loss: {len(_points(out))} point(s) computed, then refused" if _points(out)
+             else None)
+    out = w / "log2"
+    (out / "sweep.log").mkdir(parents=True)
+    case("sweep under 2 ranks: sweep.log is a directory (rank 1 waited forever)",
+         ["sweep", "case1", *ONE, "--out", str(out)], "sweep.log", ranks=2, timeout=180)
+    ro = w / "ro"
+    ro.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(ro)],
+                      capture_output=True).returncode == 0:  # root only
+        case("sweep: --out on a read-only file system", ["sweep", "case1", *ONE, "--out", str(ro / "map")],
+             "Read-only file system")
+    case("sweep: --label of 20,000 characters", ["sweep", "case1", *ONE, "--out", str(w / "label"),
+                                                 "--label", "x" * 20_000], "--label")
+    case("sweep: --label with broken mathtext", ["sweep", "case1", *ONE, "--out", str(w / "label"),
+                                                 "--label", "$\\frac{1}{$"], "--label")
+    case("sweep: --set 'loading . sigma0=5'", ["sweep", "case1", *ONE, "--out", str(w / "x"),
+                                               "--set", "loading . sigma0=5"], "loading.sigma0")
+    case("sweep: --set output.frames=[1e-6]", ["sweep", "case1", *ONE, "--out", str(w / "x"),
+                                               "--set", "output.frames=[1e-6]"], "output.frames")
+
+    # two sweeps into one directory: the first paused while it holds the directory; the second must stop
+    two = w / "two"
+    two_argv = ["sweep", "case1", "--sigma0", "6,30", "--v-imp", "2", *SWEEP, "--out", str(two)]
+    first = {}
+
+    def pause():
+        proc = subprocess.Popen([str(FRICFEM), *two_argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
+        deadline = time.monotonic() + 300  # bounds a wait for the lock, an event
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                if isinstance(json.loads((two / ".fricfem.lock").read_text()), dict):
+                    break
+            except (OSError, ValueError):
+                pass
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGSTOP)
+        first["proc"] = proc
+
+    def resume():
+        proc = first["proc"]
+        proc.send_signal(signal.SIGCONT)
+        proc.communicate(timeout=900)
+        try:
+            doc = json.loads((two / "modemap.json").read_text())
+        except (OSError, ValueError):
+            doc = {}
+        if proc.returncode != 0 or sorted(doc.get("computed", [])) != ["s30_v2", "s6_v2"] or \
+                len(doc.get("calls", [])) != 1:
+            return f"data loss: the first sweep (exit {proc.returncode}) did not finish its points alone"
+        return None
+
+    case("sweep: a second sweep into a running sweep's directory", two_argv, "another fricfem run is writing there",
+         prepare=pause, verify=resume)
+
+    # plot: a run with 100 camera frames draws at most 24 isochromatic figures, naming what it skipped
+    many = w / "frames"
+    _quiet(["run", "case1", "--set", "mesh.preset='coarse'", "--set", "output.fields=[]", "--set",
+            "output.frames={start=0.4e-6, interval=0.4e-6, count=100}", "--out", str(many), "--quiet"])
+
+    def capped():
+        n = len(list((many / "plots").glob("isochromatics_*us.png")))
+        return None if 0 < n <= 24 else f"accepted wrongly: {n} isochromatic figures for 100 frames"
+
+    case("plot: a run with 100 camera frames", ["plot", str(many)],
+         accept="draws 24 evenly spaced and names the rest (--max-figures 0: all)", warning="drew 24 evenly spaced",
+         verify=capped, timeout=900)
+    case("scenes into a closed pipe (| head -1)", ["scenes"], accept="the reader left: quiet, status 0 or 141",
+         pipe=True)
+    return cases
+
+
+def scene_cases() -> list:
+    """Issue 24's scenes accepted wrongly: an experiment given the edge pulse's keys, unit slips (warned with
+    the likely value, not refused), a cost estimate blind to the experiment's steel."""
+    from fricfem import load_scene
+    from fricfem.scene import cost
+
+    rows = [
+        ("experiment: loading.kind='projectile'", ["run", "experiment_42", *SHORT, "--set",
+                                                   "loading.kind='projectile'"], "loading.kind", None, None),
+        ("experiment: loading.impedance=1e10", ["run", "experiment_42", *SHORT, "--set", "loading.impedance=1e10"],
+         "loading.impedance", None, None),
+        ("unit slip: loading.sigma0=10 (meant MPa)", ["run", "case1", *SHORT, "--set", "loading.sigma0=10",
+                                                      "--check"], "", "warned, not refused",
+         "did you mean 10 MPa = 1e7?"),
+        ("unit slip: loading.v_imp=0.02 (meant km/s)", ["run", "case1", *SHORT, "--set", "loading.v_imp=0.02",
+                                                        "--check"], "", "warned, not refused",
+         "did you mean 0.02 km/s = 20?"),
+    ]
+    cases = [{"category": "scene (issue 24)", "id": i, "argv": argv, "needle": needle, "accept": accept,
+              "warning": warning} for i, argv, needle, accept, warning in rows]
+    # the steel: the coarse experiment with experiment.steel_dx = 1e-5 built 201,874 dofs and stepped 1.6 ns
+    # (its summary.json); the estimate may not be below what that run takes
+    sets = ["mesh.preset='coarse'", "experiment.steel_dx=1e-5"]
+
+    def steel():
+        sc = load_scene("experiment_42", sets)
+        est, real = cost.estimate(sc).dof_steps, 201874 * math.floor(sc.t_end / 1.6e-9)
+        return None if est >= real else f"accepted wrongly: estimate {est:.3g} dof·steps < the run's {real:.3g}"
+
+    cases.append({"category": "scene (issue 24)", "id": "--check of experiment.steel_dx=1e-5 (coarse)",
+                  "argv": ["run", "experiment_42", *[a for s in sets for a in ("--set", s)], "--check"],
+                  "needle": "", "accept": "within the budget, the steel counted", "verify": steel})
+    return cases
 
 
 def calibrate(tmp: Path) -> list:
@@ -516,13 +712,16 @@ def report(results: list, calib: list, wall: float) -> str:
         f"{sum(t < 2.0 for t in refused)}/{len(refused)} under 2 s; no run directory was made for any of them "
         f"(validation runs before the mesh).",
         "",
-        "| category | cases | clear | accepted | other |",
-        "|---|---|---|---|---|",
+        "| category | cases | clear | accepted | other | crashes | hangs | data loss | accepted wrongly |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in cats:
         rs = [r for r in results if r["category"] == c]
+        faults = [r.get("fault") for r in rs]
         lines.append(f"| {c} | {len(rs)} | {sum(r['outcome'] == 'clear' for r in rs)} | "
-                     f"{sum(r['outcome'] == 'accepted' for r in rs)} | {sum(r['outcome'] == 'other' for r in rs)} |")
+                     f"{sum(r['outcome'] == 'accepted' for r in rs)} | {sum(r['outcome'] == 'other' for r in rs)} | "
+                     + " | ".join(str(faults.count(k)) for k in ("crash", "hang", "data loss", "accepted wrongly"))
+                     + " |")
     lines += ["", "## Accepted on purpose", "", "| case | why |", "|---|---|"]
     lines += [f"| {r['id']} | {r['accept']} |" for r in results if r["outcome"] == "accepted"]
     others = [r for r in results if r["outcome"] == "other"]
@@ -563,7 +762,7 @@ def _write_json(path: Path, doc: dict) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="comma-separated categories prefixes (key, law, rule, cli, file, file system, "
-                                   "fault); not written")
+                                   "fault, scene, sweep); not written")
     ap.add_argument("--no-calibration", action="store_true")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="fricfem-bad-input-"))
@@ -572,10 +771,15 @@ def main(argv=None) -> int:
         cases = key_cases() + rule_cases() + cli_cases(tmp) + file_cases(tmp) + fs_cases(tmp)
         if not args.only or any("fault (run)".startswith(p) for p in args.only.split(",")):
             cases += fault_cases(tmp)
+        cases += scene_cases()
+        if not args.only or any("sweep (issue 24)".startswith(p) for p in args.only.split(",")):
+            cases += sweep_cases(tmp)  # these make their states first (a finished sweep, a run)
         if args.only:
             cases = [c for c in cases if any(c["category"].startswith(p) for p in args.only.split(","))]
         results = []
         for i, case in enumerate(cases):
+            if case.get("prepare"):
+                case["prepare"]()
             r = run_case(case, tmp)
             results.append(r)
             mark = {"clear": ".", "accepted": "a"}.get(r["outcome"], "X")
@@ -593,6 +797,7 @@ def main(argv=None) -> int:
         return 0 if all(r["outcome"] != "other" for r in results) else 1
     finally:
         subprocess.run(["umount", "-l", str(tmp / "fs" / "ro")], capture_output=True)
+        subprocess.run(["umount", "-l", str(tmp / "sweeps" / "ro")], capture_output=True)
         for disk in (tmp / "faults").glob("disk*"):
             subprocess.run(["umount", "-l", str(disk)], capture_output=True)
         shutil.rmtree(tmp, ignore_errors=True)
