@@ -24,7 +24,7 @@ def _ranks() -> int:
     """The job's rank count as mpirun tells it (without initialising MPI)."""
     import os
 
-    for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS"):
+    for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
         value = os.environ.get(var, "")
         if value.isdigit():
             return int(value)
