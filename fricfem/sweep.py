@@ -106,6 +106,29 @@ def parse_axis(text: str, name: str, unit: str) -> tuple:
     return tuple(values)
 
 
+#: Longest ``--label`` (the map's title; the figure draws it in one or two lines).
+MAX_LABEL = 200
+
+
+def check_label(label: str) -> str:
+    """``--label`` if the figures can draw it: at most :data:`MAX_LABEL` characters, no control
+    characters but a line break, and any ``$...$`` valid mathtext — checked before any point runs."""
+    if len(label) > MAX_LABEL:
+        raise SceneError(f"--label: {len(label)} characters; at most {MAX_LABEL} (the map's title)")
+    bad = sorted({f"U+{ord(c):04X}" for c in label if (ord(c) < 32 and c != "\n") or 0x7f <= ord(c) < 0xa0})
+    if bad:
+        raise SceneError(f"--label {label[:40]!r}: holds control characters ({', '.join(bad[:5])})")
+    if label.replace("\\$", "").count("$") >= 2:  # matplotlib draws $...$ as mathematics
+        from matplotlib.mathtext import MathTextParser
+
+        try:
+            MathTextParser("path").parse(label)
+        except ValueError as err:
+            raise SceneError(f"--label {label!r}: its $...$ is not valid mathtext ({' '.join(str(err).split())}); "
+                             f"write \\$ for a dollar sign") from None
+    return label
+
+
 def _positive(item: str, text: str, name: str, unit: str) -> float:
     try:
         v = float(item)
@@ -488,6 +511,8 @@ def sweep(base: str, sigma0_mpa, v_imp, out, sets=(), preset=None, label=None, v
             "planned": planned if comm.rank == 0 else None}
     log = _Log(spec["out"] / LOG_FILE, comm.rank, quiet)
     held = []  # rank 0: the sweep directory's lock
+    if label is not None:
+        check_label(label)  # the same on every rank: the figures can draw it, before any point runs
     _on_root(comm, lambda: held.append(_preflight(spec["out"], variants)), "preparing --out failed")
     try:
         with batch.Pool(comm, ranks_per_scene, reuse=reuse) as pool:

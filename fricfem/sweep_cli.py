@@ -11,7 +11,7 @@ from mpi4py import MPI
 
 from .analysis.modemap import table, tag
 from .scene import SceneError
-from .sweep import DEFAULT_SIGMA0_MPA, DEFAULT_V_IMP, parse_axis, plan, sweep
+from .sweep import DEFAULT_SIGMA0_MPA, DEFAULT_V_IMP, check_label, parse_axis, plan, sweep
 
 #: ``--coarse`` default: values per axis of the adaptive map's first grid.
 COARSE = 5
@@ -97,29 +97,6 @@ def _check_cost(args, s, v, comm) -> tuple:
         if len(warned) > 3:
             print(f"fricfem sweep: warning: ... and {len(warned) - 3} more", file=sys.stderr)
     return maps, points
-
-
-#: Longest ``--label`` (the map's title; the figure draws it in one or two lines).
-MAX_LABEL = 200
-
-
-def check_label(label: str) -> str:
-    """``--label`` if the figures can draw it: at most :data:`MAX_LABEL` characters, no control
-    characters but a line break, and any ``$...$`` valid mathtext — checked before any point runs."""
-    if len(label) > MAX_LABEL:
-        raise SceneError(f"--label: {len(label)} characters; at most {MAX_LABEL} (the map's title)")
-    bad = sorted({f"U+{ord(c):04X}" for c in label if (ord(c) < 32 and c != "\n") or 0x7f <= ord(c) < 0xa0})
-    if bad:
-        raise SceneError(f"--label {label[:40]!r}: holds control characters ({', '.join(bad[:5])})")
-    if label.replace("\\$", "").count("$") >= 2:  # matplotlib draws $...$ as mathematics
-        from matplotlib.mathtext import MathTextParser
-
-        try:
-            MathTextParser("path").parse(label)
-        except ValueError as err:
-            raise SceneError(f"--label {label!r}: its $...$ is not valid mathtext ({' '.join(str(err).split())}); "
-                             f"write \\$ for a dollar sign") from None
-    return label
 
 
 def _axes(args, comm) -> tuple:

@@ -14,6 +14,11 @@ The figure kinds are the paper's (Coker, Lykotrafitis, Needleman & Rosakis,
 - ``isochromatics_<t>us.png`` fringe pictures of σ1 − σ2 (Figs. 9, 11, 13, 16,
   18; :mod:`.isochromatics`).
 
+At most :data:`MAX_FIGURES` (24) isochromatic figures and frame-series panels
+are drawn, evenly spaced in time, and a warning names what was skipped: a run
+with 1000 frames would otherwise write 1000 PNGs.  ``--max-figures N`` changes
+the limit (0: every snapshot); ``--times`` chooses them.
+
 Python API: times are in seconds. Command line: times are in µs.
 """
 
