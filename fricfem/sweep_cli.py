@@ -4,6 +4,7 @@ cost check before any run, the printed table.  docs/sweep.md describes it."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -152,23 +153,33 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> int:
         return 1
     status_code = 0
     if comm.rank == 0:
-        for name, doc in res["maps"].items():
-            print(f"{doc['title']}  ({doc['dir']}/modemap.json, .png)")
-            print(table(s, v, doc["labels"]["values"]))
-            bad = doc["incomplete"]
+        for doc in res["maps"].values():
             ad = doc.get("adaptive")
-            if ad:
-                print(f"  adaptive: {ad['scenes']} scenes of {len(s) * len(v)} points in {len(ad['rounds'])} "
-                      f"rounds {ad['rounds']}; the other labels inferred from their cells")
-            print(f"  computed {len(doc['computed'])}, reused {len(doc['reused'])}, incomplete {len(bad)}"
-                  + (f": {', '.join(bad)} (see {doc['dir']}/sweep.log; rerun to resume)" if bad else ""))
-            print()
-            if bad or (ad and not ad["finished"]):
+            if doc["incomplete"] or (ad and not ad["finished"]):
                 status_code = 1
-        if len(res["maps"]) > 1:
-            print(f"combined figure: {Path(args.out) / 'modemap_variants.png'}")
-        print(f"total wall time {res['wall_s']:.1f} s on {comm.size} rank(s)")
+        try:
+            _print_maps(res, s, v, args, comm)
+        except BrokenPipeError:  # `fricfem sweep ... | head`: the reader left; the map is written, every rank ends
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return comm.bcast(status_code, root=0)
+
+
+def _print_maps(res, s, v, args, comm) -> None:
+    """Rank 0: each map's label table and counts, the combined figure, the wall time (stdout)."""
+    for doc in res["maps"].values():
+        print(f"{doc['title']}  ({doc['dir']}/modemap.json, .png)")
+        print(table(s, v, doc["labels"]["values"]))
+        bad = doc["incomplete"]
+        ad = doc.get("adaptive")
+        if ad:
+            print(f"  adaptive: {ad['scenes']} scenes of {len(s) * len(v)} points in {len(ad['rounds'])} "
+                  f"rounds {ad['rounds']}; the other labels inferred from their cells")
+        print(f"  computed {len(doc['computed'])}, reused {len(doc['reused'])}, incomplete {len(bad)}"
+              + (f": {', '.join(bad)} (see {doc['dir']}/sweep.log; rerun to resume)" if bad else ""))
+        print()
+    if len(res["maps"]) > 1:
+        print(f"combined figure: {Path(args.out) / 'modemap_variants.png'}")
+    print(f"total wall time {res['wall_s']:.1f} s on {comm.size} rank(s)", flush=True)
 
 
 if __name__ == "__main__":

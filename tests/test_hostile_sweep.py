@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import signal
 import subprocess
 import sys
@@ -362,3 +363,20 @@ def test_scenes_into_a_closed_pipe_is_quiet(comm):
 
     rc, err = on_rank0(comm, run)
     assert rc in ("0", "141") and "error" not in err and "Traceback" not in err, (rc, err)
+
+
+def test_a_sweep_printing_into_a_closed_pipe_under_two_ranks_ends_every_rank(tmp_path_factory, comm):
+    """``mpirun -n 2 fricfem sweep ... | head -1``: rank 0's table meets a closed stdout; it must end
+    quietly and still join rank 1 in the final collective (else rank 1 waits forever)."""
+    def run():
+        out = tmp_path_factory.mktemp("pipe") / "map"
+        cmd = ["mpirun", "-n", "2", "--oversubscribe",
+               *_fricfem("sweep", "case1", "--sigma0", "6,30", "--v-imp", "2", *QUICK, "--out", str(out))]
+        res = subprocess.run(" ".join(map(shlex.quote, cmd)) + " | head -c 1 >/dev/null; echo ${PIPESTATUS[0]}",
+                             shell=True, executable="/bin/bash", capture_output=True, text=True, env=_env(),
+                             timeout=JOB_TIMEOUT)
+        return res.stdout.strip(), res.stderr, json.loads((out / "modemap.json").read_text())["computed"]
+
+    rc, err, computed = on_rank0(comm, run)
+    assert rc in ("0", "141") and "Traceback" not in err and "error" not in err, (rc, err)
+    assert sorted(computed) == ["s30_v2", "s6_v2"]
