@@ -40,8 +40,8 @@ class Key(NamedTuple):
         lo, hi = self.band
         if lo <= abs(v) <= hi:
             return None
-        text = (f"{where} = {v:g} {self.unit}: outside the plausible {lo:g} … {hi:g} {self.unit} ({self.doc})"
-                .replace("  ", " "))
+        text = f"{where} = {v:g} {self.unit}: outside the plausible {_short(lo)} … {_short(hi)} {self.unit}" \
+            f" (a unit slip?)"
         centre = abs(self.default) if isinstance(self.default, NUM) and self.default else (lo * hi) ** 0.5
         fits = [(abs(math.log(abs(v) * f / centre)), f, name) for f, name in _PREFIXES.get(self.unit, ())
                 if lo <= abs(v) * f <= hi]
