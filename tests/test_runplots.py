@@ -481,3 +481,40 @@ def test_interface_host_curves_are_drawn_over_their_twins(run_plots, tmp_path, m
             assert twin.lines[0].get_linewidth() >= 2 * host.lines[0].get_linewidth()
             assert twin.lines[0].get_alpha() < 1
         assert not any(t.get_text().startswith("(") for t in twin.texts)
+
+def test_isochromatics_keep_the_interface_clear_and_show_a_rupture_box_whole(run_plots, tmp_path, monkeypatch):
+    """The sliding zones are a strip above the fringe picture at their x1 (the orange bar on x2 = 0
+    covered the fringes there); a struck run shows the impact region, a run with no impact the whole
+    box (a rupture problem's picture was cut to ±30 mm)."""
+    import dataclasses
+
+    from matplotlib.colors import same_color
+
+    figures = _keep_figures(monkeypatch, plot_iso)
+    rundir, _ = run_plots
+    with rd.open_interface(rundir) as itf:
+        struck = rd.run_info(rundir, interface=itf)
+        t = FIELD_TIMES[1]
+        zones = plot_iso.sliding_zones(itf, t)
+        assert zones, "the synthetic run slides at 32 µs"
+        plot_iso.isochromatics(rundir / quantities.FIELDS_FILE, tmp_path / "struck", times=[t], info=struck,
+                               itf=itf)
+        quiet = dataclasses.replace(struck, v_imp=0.0)
+        plot_iso.isochromatics(rundir / quantities.FIELDS_FILE, tmp_path / "quiet", times=[t], info=quiet, itf=itf)
+    name = f"isochromatics_{rd.time_tag(t)}.png"
+    assert len(figures) == 1  # both have the same name: the last one drawn is the quiet one
+    ax = figures[name].axes[0]
+    assert ax.get_xlim() == pytest.approx((0.0, 137.0)) and ax.get_ylim() == pytest.approx((-75.0, 75.0))
+    bars = [ln for ln in ax.lines if same_color(ln.get_color(), "C1")]
+    assert len(bars) == len(zones)
+    for ln, (a, b) in zip(bars, zones):
+        assert ln.get_transform() == ax.get_xaxis_transform() and not ln.get_clip_on()
+        assert np.allclose(ln.get_xdata(), [a * 1e3, b * 1e3]) and np.all(np.asarray(ln.get_ydata()) > 1.0)
+    interface_lines = [ln for ln in ax.lines if np.allclose(ln.get_ydata(), 0.0) and ln.get_linewidth() > 1.0]
+    assert interface_lines == []  # nothing thick drawn on x2 = 0
+    figures.clear()
+    with rd.open_interface(rundir) as itf:
+        plot_iso.isochromatics(rundir / quantities.FIELDS_FILE, tmp_path / "struck2", times=[t], info=struck,
+                               itf=itf)
+    ax = figures[name].axes[0]
+    assert ax.get_xlim() == pytest.approx((0.0, 80.0)) and ax.get_ylim() == pytest.approx((-30.0, 30.0))

@@ -21,8 +21,11 @@ F_SIGMA = 22.6e3
 THICKNESS = 9.525e-3
 
 
-#: Default isochromatic window (x1_min, x1_max, x2_min, x2_max) [m]: the impact region.
+#: Default isochromatic window (x1_min, x1_max, x2_min, x2_max) [m] of a struck run: the impact
+#: region.  A run with no impact (a rupture problem) is shown whole.
 ISO_WINDOW = (0.0, 0.080, -0.030, 0.030)
+#: Height of the sliding-zone strip above the picture, in axes fractions.
+SLIDING_STRIP = 1.012
 
 
 def fringe_image(grid, window=ISO_WINDOW, *, name: str = "stress_difference", width_px: int = 1200,
@@ -83,17 +86,20 @@ def isochromatic_figure(image: np.ndarray, window, path, *, title: str = "", sli
     ax.imshow(image, extent=(x0, x1, y0, y1), origin="upper", interpolation="antialiased")
     handles = [Line2D([], [], color="C3", lw=0.8, ls="--", label=r"interface $x_2 = 0$")]
     ax.axhline(0.0, color="C3", lw=0.8, ls="--", alpha=0.9)
+    # the sliding zones as a strip just above the picture, at their x1: off the fringes at the interface
     for k, (a, b) in enumerate(sliding or []):
-        ax.plot([a * 1e3, b * 1e3], [0.0, 0.0], color="C1", lw=3.5, solid_capstyle="butt")
+        ax.plot([a * 1e3, b * 1e3], [SLIDING_STRIP, SLIDING_STRIP], color="C1", lw=3.5, solid_capstyle="butt",
+                transform=ax.get_xaxis_transform(), clip_on=False)
         if k == 0:
-            handles.append(Line2D([], [], color="C1", lw=3.5, label=r"sliding, $\Delta\dot u_{\rm slip} > 0$"))
+            handles.append(Line2D([], [], color="C1", lw=3.5,
+                                  label=r"sliding, $\Delta\dot u_{\rm slip} > 0$ (strip above)"))
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
     ax.set_xlabel(r"$x_1$ [mm]")
     ax.set_ylabel(r"$x_2$ [mm]")
     ax.legend(handles=handles, loc="lower right", fontsize=8, framealpha=0.85)
-    ax.set_title(title, fontsize=10)
+    ax.set_title(title, fontsize=10, pad=12)  # clear of the sliding strip
     ax.annotate(rf"dark field $\sin^2(\pi N)$, $N = (\sigma_1-\sigma_2)\,h/f_\sigma$, "
             rf"$h$ = {thickness * 1e3:.4g} mm, $f_\sigma$ = {f_sigma / 1e3:.3g} kN/m",
             xy=(1.0, 0.0), xycoords="axes fraction", xytext=(0, -36), textcoords="offset points",
@@ -116,13 +122,18 @@ def sliding_zones(itf: InterfaceFile | None, t: float) -> list:
 
 
 def isochromatics(fields_path, out_dir, *, times=None, info: RunInfo | None = None, itf=None,
-                  window=ISO_WINDOW, thickness: float = THICKNESS, f_sigma: float = F_SIGMA) -> list[Path]:
+                  window=None, thickness: float = THICKNESS, f_sigma: float = F_SIGMA) -> list[Path]:
     """``isochromatics_<t>us.png`` for every written time (or the nearest to ``times`` [s]).
 
-    ``window`` (x1_min, x1_max, x2_min, x2_max) [m], cut to the mesh; ``itf``
-    (an :class:`InterfaceFile`) adds the sliding zones of the nearest interface row.
+    ``window`` (x1_min, x1_max, x2_min, x2_max) [m], cut to the mesh; by default
+    :data:`ISO_WINDOW` on a struck run and the whole mesh on one with no impact;
+    ``itf`` (an :class:`InterfaceFile`) adds the sliding zones of the nearest interface row.
     """
     info = info or RunInfo()
+    if window is None:
+        from .common import has_impact
+
+        window = ISO_WINDOW if has_impact(info) else (-math.inf, math.inf, -math.inf, math.inf)
     reader = FieldReader(fields_path)
     if len(reader.times) == 0:
         log.warning("%s: no snapshots; isochromatics skipped", fields_path)
