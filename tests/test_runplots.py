@@ -383,6 +383,11 @@ def test_spacetime_x_axis_holds_the_sliding_and_impact_lines_only_with_an_impact
     assert lo <= 0.0 and slid.max() * 1e3 <= hi <= (slid.max() + 0.1 * (slid.max() - slid.min())) * 1e3 + 3.0
     assert hi < 0.9 * plate * 1e3  # the synthetic front stops at 60 mm of a 137 mm plate
     assert len(_impact_lines(ax)) == 2
+    fronts = [ln for ln in ax.lines if ln.get_color() in ("C3", "C1")]
+    assert len(fronts) == len(summary["fronts"])  # each front drawn thin and see-through over the pulses
+    for ln, front in zip(fronts, summary["fronts"]):
+        assert np.allclose(ln.get_xdata(), np.asarray(front["x"]) * 1e3) and ln.get_linewidth() <= 1.0
+        assert ln.get_alpha() < 1
     for ln, c in zip(_impact_lines(ax), (C_L, C_S)):  # x1 = c t [mm, µs]
         xs, ts = ln.get_xdata(), ln.get_ydata()
         assert np.allclose(xs[-1] / ts[-1], c * 1e-3, rtol=1e-12)

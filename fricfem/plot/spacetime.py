@@ -104,6 +104,11 @@ def _reference_lines(ax, speeds: dict, tmax: float, xmax: float) -> None:
         ax.plot([0.0, c * t_end * 1e3], [0.0, t_end * 1e6], color="k", ls=style, lw=1.0)
 
 
+#: The tracked fronts: thin and half-transparent, so that the pulses they outline stay visible
+#: (at 1.6 pt they covered pulses a few cells wide).
+FRONT_LW, FRONT_ALPHA = 1.0, 0.85
+
+
 def _front_lines(ax, summary: dict) -> list:
     """Draw the tracked fronts (or the tip) of summary.json; return legend handles."""
     style = {"rupture": {"color": "C3", "ls": "-"}, "healing": {"color": "C1", "ls": "--"}}
@@ -115,7 +120,7 @@ def _front_lines(ax, summary: dict) -> list:
         if len(tt) < 1 or len(tt) != len(xx):
             continue
         st = style.get(kind, {"color": "C4", "ls": "-."})
-        ax.plot(xx * 1e3, tt * 1e6, lw=1.6, **st)
+        ax.plot(xx * 1e3, tt * 1e6, lw=FRONT_LW, alpha=FRONT_ALPHA, **st)
         if kind not in seen:
             seen.add(kind)
             handles.append(Line2D([], [], lw=1.6, label=f"{kind} front", **st))
