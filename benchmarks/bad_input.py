@@ -566,11 +566,11 @@ def sweep_cases(tmp: Path) -> list:
              "Read-only file system")
     case("sweep: --label of 20,000 characters", ["sweep", "case1", *ONE, "--out", str(w / "label"),
                                                  "--label", "x" * 20_000], "--label")
-    case("sweep: --label with broken mathtext", ["sweep", "case1", *ONE, "--out", str(w / "label"),
+    case("sweep: --label with broken mathtext", ["sweep", "case1", *ONE, "--out", str(w / "label2"),
                                                  "--label", "$\\frac{1}{$"], "--label")
-    case("sweep: --set 'loading . sigma0=5'", ["sweep", "case1", *ONE, "--out", str(w / "x"),
+    case("sweep: --set 'loading . sigma0=5'", ["sweep", "case1", *ONE, "--out", str(w / "x1"),
                                                "--set", "loading . sigma0=5"], "loading.sigma0")
-    case("sweep: --set output.frames=[1e-6]", ["sweep", "case1", *ONE, "--out", str(w / "x"),
+    case("sweep: --set output.frames=[1e-6]", ["sweep", "case1", *ONE, "--out", str(w / "x2"),
                                                "--set", "output.frames=[1e-6]"], "output.frames")
 
     # two sweeps into one directory: the first paused while it holds the directory; the second must stop
