@@ -35,6 +35,7 @@ import os
 import re
 import types
 import warnings
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -294,7 +295,7 @@ def cache_tag(fn):
         return f"{module.rsplit('.', 1)[-1]}_{qual}"
     try:
         path = inspect.getsourcefile(py)
-        source = open(path, "rb").read() if path and os.path.isfile(path) else None
+        source = Path(path).read_bytes() if path and os.path.isfile(path) else None
     except (OSError, TypeError):
         source = None
     if source is None:
