@@ -17,8 +17,18 @@ Layout (crash-safe, and one time series that every XDMF reader takes whole):
   layout, 2–3.5 ms of it interpolating the stress's UFL expression, which a
   numba loop over the cells now does in ~0.3 ms: :mod:`fricfem.kernels.stress`);
 - ``fields.xdmf`` — one temporal collection: a grid per snapshot with the mesh
-  and the three functions (displacement and velocity at the nodes, σ1 − σ2
-  per cell), rewritten (temporary file, then renamed) after each snapshot.
+  and the functions (displacement and velocity at the nodes, σ1 − σ2 per cell
+  and, for viewers, the same at the nodes: ``stress_difference_nodal``, the
+  lumped L2 projection of the cells' values to P1), rewritten (temporary file,
+  then renamed) after each snapshot.
+
+What a viewer needs is written into the files themselves: every DataItem
+declares ``NumberType="Float" Precision="8"`` (the geometry too: without it
+XDMF readers take float32), ``Information`` elements in the Domain state the
+time unit (s), each function's unit and meaning (the stress includes the
+prestress, the displacement and velocity are the dynamic part only:
+:data:`~.quantities.FIELD_MEANING`), and each HDF5 dataset carries ``unit`` and
+``meaning`` attributes.  docs/paraview.md shows how to read them in ParaView.
 
 So at any instant ``fields.xdmf`` lists exactly the snapshots whose files are
 complete, and meshio's ``TimeSeriesReader``, VTK/pyvista and ParaView read
@@ -40,7 +50,7 @@ from dolfinx.io import XDMFFile
 
 from ..kernels import stress
 from .gauges import shape_gradients
-from .quantities import FIELDS
+from .quantities import DERIVED_FIELDS, FIELD_MEANING, FIELDS
 
 #: the folder beside ``fields.xdmf`` that holds its HDF5 files
 FIELDS_DIR = "fields"
@@ -110,7 +120,28 @@ def _label_units(path: Path, group: str, units: dict) -> None:
     with h5py.File(path, "r+") as f:
         for name, unit in units.items():
             for key, d in f[group][name].items():
-                d.attrs["unit"] = "" if key == "topology" else unit
+                d.attrs["unit"] = "1 (node indices)" if key == "topology" else unit
+
+
+def nodal_projection(topology: np.ndarray, points: np.ndarray):
+    """What :func:`to_nodes` needs for a first-order triangle mesh (``topology``
+    int[n_cells, 3] into ``points`` float[n_nodes, >= 2]): the node of each cell
+    corner, each cell's area and each node's summed area."""
+    p = np.asarray(points, dtype=np.float64)[:, :2]
+    a, b, c = (p[topology[:, k]] for k in range(3))
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+    corners = np.ascontiguousarray(topology, dtype=np.int64).reshape(-1)
+    weight = np.bincount(corners, weights=np.repeat(area, 3), minlength=len(p))
+    return corners, area, weight
+
+
+def to_nodes(projection: tuple, cell_values: np.ndarray) -> np.ndarray:
+    """Cell values (float64[n_cells]) at the nodes: the lumped L2 projection of a
+    DG0 function to P1, Σ_c A_c σ_c / Σ_c A_c over the cells c around each node
+    (vectorised; exact for a constant field, never outside the cells' range)."""
+    corners, area, weight = projection
+    summed = np.bincount(corners, weights=np.repeat(area * cell_values, 3), minlength=len(weight))
+    return summed / np.where(weight > 0.0, weight, 1.0)
 
 
 def _replace_text(path: Path, text: str) -> None:
@@ -124,7 +155,22 @@ def _mesh_xml(xdmf: Path, h5_ref: str) -> ET.Element:
     grid = ET.parse(xdmf).getroot().find("Domain").find("Grid")
     for item in grid.iter("DataItem"):
         item.text = h5_ref + ":" + item.text.strip().partition(":")[2]
+    for item in grid.find("Geometry").iter("DataItem"):  # float64 on disk: say so (XDMF's default is float32)
+        if "DataType" not in item.attrib:
+            item.set("NumberType", "Float")
+        item.set("Precision", "8")
     return grid
+
+
+def information_xml() -> str:
+    """The Domain's ``Information`` elements of ``fields.xdmf`` (indented XML text)."""
+    items = [("TimeUnit", "s (Time values are seconds: multiply by 1e6 for µs; docs/paraview.md)"),
+             ("Units", "SI: lengths in m, velocities in m/s, stresses in Pa"),
+             ("Geometry", "x1 along the interface, x2 normal to it [m]")]
+    for name, unit in {**FIELDS, **DERIVED_FIELDS}.items():
+        items.append((name, f"[{unit}] {FIELD_MEANING[name]}"))
+    return "".join(f"    {ET.tostring(ET.Element('Information', Name=n, Value=v), encoding='unicode')}\n"
+                   for n, v in items)
 
 
 class FieldWriter:
@@ -155,9 +201,14 @@ class FieldWriter:
             raise OSError(None, f"cannot write the mesh of the field snapshots ({err}){_space(self.dir)}",
                           str(self.dir / MESH_FILE)) from None
         self.mesh_grid = None  # rank 0: the XML of the mesh's Topology and Geometry, pointing at mesh.h5
+        self.projection = None  # rank 0: the mesh's cell corners and areas (σ1 − σ2 to the nodes)
         if self.comm.rank == 0:
             self.mesh_grid = ET.tostring(_mesh_xml(mesh_xdmf, f"{FIELDS_DIR}/{MESH_FILE}"), encoding="unicode")
             _label_units(self.dir / ".mesh.h5", "Mesh", {"mesh": "m"})
+            import h5py
+
+            with h5py.File(self.dir / ".mesh.h5", "r") as f:
+                self.projection = nodal_projection(f["Mesh/mesh/topology"][...], f["Mesh/mesh/geometry"][...])
             os.replace(self.dir / ".mesh.h5", self.dir / MESH_FILE)
             mesh_xdmf.unlink()
 
@@ -229,8 +280,12 @@ class FieldWriter:
         # the file made in memory, then written with one plain write: a full disk is an
         # OSError of that write, not an HDF5 error at some later close
         with h5py.File(f"{name}.image", "w", driver="core", backing_store=False) as f:
+            values = {**values, "stress_difference_nodal": to_nodes(self.projection, values["stress_difference"][:, 0])[:, None]}
             for fname, a in values.items():
-                f.create_dataset(f"Function/{fname}/{key}", data=a).attrs["unit"] = FIELDS[fname]
+                d = f.create_dataset(f"Function/{fname}/{key}", data=a)
+                d.attrs["unit"] = {**FIELDS, **DERIVED_FIELDS}[fname]
+                d.attrs["meaning"] = FIELD_MEANING[fname]
+                d.attrs["time_s"] = t
             f.flush()
             image = f.id.get_file_image()
         try:
@@ -254,16 +309,20 @@ class FieldWriter:
         ET.SubElement(grid, "Time", Value=repr(float(t)))
         for fname, shape in shapes.items():
             nodal = fname != "stress_difference"
-            att = ET.SubElement(grid, "Attribute", Name=fname, AttributeType="Vector" if nodal else "Scalar",
+            vector = fname in ("displacement", "velocity")
+            att = ET.SubElement(grid, "Attribute", Name=fname, AttributeType="Vector" if vector else "Scalar",
                                 Center="Node" if nodal else "Cell")
-            item = ET.SubElement(att, "DataItem", Dimensions=f"{shape[0]} {shape[1]}", Format="HDF", Precision="8")
+            item = ET.SubElement(att, "DataItem", Dimensions=f"{shape[0]} {shape[1]}", NumberType="Float",
+                                 Precision="8", Format="HDF")
             item.text = f"{FIELDS_DIR}/{h5_name}:/Function/{fname}/{key}"
         return grid
 
     def _document(self) -> str:
-        """``fields.xdmf``: the temporal collection (its first grid is the mesh meshio takes)."""
-        return ('<?xml version="1.0"?>\n<Xdmf Version="3.0">\n  <Domain>\n'
-                '    <Grid Name="fields" GridType="Collection" CollectionType="Temporal">\n'
+        """``fields.xdmf``: the Domain's Information elements (time unit, each function's
+        unit and meaning), then the temporal collection (its first grid is the mesh
+        meshio takes).  An Attribute holds its DataItem alone: meshio refuses more."""
+        return ('<?xml version="1.0"?>\n<Xdmf Version="3.0">\n  <Domain>\n' + information_xml()
+                + '    <Grid Name="fields" GridType="Collection" CollectionType="Temporal">\n'
                 + "".join(self.grids) + "    </Grid>\n  </Domain>\n</Xdmf>\n")
 
     def close(self) -> None:

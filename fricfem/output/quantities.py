@@ -43,7 +43,7 @@ class Quantity(NamedTuple):
     """One interface quantity of ``interface.h5``.
 
     name    dataset name
-    unit    SI unit ("" dimensionless)
+    unit    SI unit ("1": dimensionless, as UDUNITS/CF write it; never empty)
     read    function of :class:`fricfem.model.interface.Points` -> float64[n_points]
     label   figure label (mathtext)
     signed  True when it changes sign with the sliding direction; figures then
@@ -87,9 +87,9 @@ QUANTITIES = (
     Quantity("slip", "m", lambda p: p.slip, r"$\Delta u_{\rm slip}$", doc="accumulated frictional slip", attr="slip"),
     Quantity("jump_s", "m", lambda p: p.jump_s, r"$\Delta u_s$", True, r"$-\Delta u_s$",
              doc="tangential jump Δu_s = u⁺ − u⁻", attr="jump_s"),
-    Quantity("mu_app", "", _mu_app, r"$\mu_{\rm app} = T_s/T_n$", True, r"$-\mu_{\rm app} = -T_s/T_n$",
+    Quantity("mu_app", "1", _mu_app, r"$\mu_{\rm app} = T_s/T_n$", True, r"$-\mu_{\rm app} = -T_s/T_n$",
              doc="apparent friction T_s/T_n (0 where open)"),
-    Quantity("open", "", lambda p: p.is_open, "open", doc="1 where the interface is open", dtype="i1",
+    Quantity("open", "1", lambda p: p.is_open, "open", doc="1 where the interface is open", dtype="i1",
              attr="is_open"),
 )
 BY_NAME = {q.name: q for q in QUANTITIES}
@@ -98,8 +98,31 @@ BY_NAME = {q.name: q for q in QUANTITIES}
 ENERGY = {"time": "s", "kinetic": "J/m", "strain": "J/m", "interface_work": "J/m", "interface_elastic": "J/m",
           "dissipated": "J/m", "external": "J/m", "absorbed": "J/m", "balance_error": "J/m"}
 
-#: field snapshot functions in ``fields.xdmf`` -> unit.
+#: field snapshot functions in ``fields.xdmf`` -> unit (the arrays the goldens fingerprint).
 FIELDS = {"displacement": "m", "velocity": "m/s", "stress_difference": "Pa"}
+#: functions derived from :data:`FIELDS` for viewers, written beside them -> unit:
+#: σ1 − σ2 at the nodes (the cells' values, lumped-L2 projected to P1) so that
+#: ParaView draws it smooth without "Cell Data to Point Data".
+DERIVED_FIELDS = {"stress_difference_nodal": "Pa"}
+#: what each field function is, written into fields.xdmf (Information elements)
+#: and onto each HDF5 dataset (``meaning``): the stress includes the prestress,
+#: the displacement and velocity are the dynamic part only.
+FIELD_MEANING = {
+    "displacement": "dynamic part only: the displacement since t = 0 of the prestressed plates (the static "
+                    "deformation under the prestress is not included)",
+    "velocity": "particle velocity v^(n-1/2) (half a step before the snapshot's time), dynamic part only",
+    "stress_difference": "sigma1 - sigma2 of the TOTAL in-plane stress, prestress included "
+                         "(S22 = -Sigma0, S12 = tau0 added to the dynamic stress), constant per cell",
+    "stress_difference_nodal": "stress_difference (prestress included) at the nodes: the cells' values "
+                               "averaged with the cells' areas as weights (lumped L2 projection to P1); "
+                               "for viewing, the cell values are the computed ones",
+}
+
+#: Units of law state variables (``state/<name>`` of interface.h5), by name, for
+#: the shipped laws: slip weakening's slip, rate and state's ψ, Povirk–Needleman's θ.
+STATE_UNITS = {"slip": "m", "psi": "1", "theta0": "s", "theta1": "Pa", "theta2": "Pa"}
+#: the unit written for a state variable of a user law that is not in :data:`STATE_UNITS`
+UNDECLARED_UNIT = "undeclared (a user law's state variable; fricfem.output.quantities.STATE_UNITS)"
 
 #: Reference wave speeds (summary ``speeds``) and their figure labels.
 SPEED_LABEL = {"c_R": r"$c_R$", "c_s": r"$c_s$", "sqrt2_c_s": r"$\sqrt{2}\,c_s$", "c_l": r"$c_l$"}
@@ -114,7 +137,11 @@ def label(name: str, sign: float = 1.0) -> str:
 
 
 def unit(name: str) -> str:
-    """SI unit of an interface quantity, a ``state/<θ>`` dataset ("" if unknown) or an energy."""
+    """SI unit of an interface quantity, a ``state/<θ>`` dataset or an energy ("1":
+    dimensionless; a user law's undeclared state: :data:`UNDECLARED_UNIT`; "" only
+    for a name that is none of these)."""
     if name in BY_NAME:
         return BY_NAME[name].unit
+    if name.startswith("state/"):
+        return STATE_UNITS.get(name[len("state/"):], UNDECLARED_UNIT)
     return ENERGY.get(name, "")

@@ -147,6 +147,7 @@ class Recorder:
                            **{k: v for k, v in speeds.items()})
             f["x1"] = self.x1
             write_regions(f, scene.regions, self.x1)  # the friction.regions entry of each point
+            f["regions/index"].attrs["unit"] = "1 (an index)"  # every dataset names its unit (none empty)
             f["x1"].attrs["unit"] = "m"
             n = self.rows["snapshots"]
             _dataset(f, "time", (n,), "f8", "s")
