@@ -75,11 +75,14 @@ Optional verbs (``None`` when a law does not provide them):
     step v = V^{n+½} >= 0 [m/s] (along sgn(T_stick)), the slip from t^n to
     t^{n+1}, v·dt [m] (so the slip lives at whole steps: δ^{n+1} = δ^n + v dt),
     the frictional work |Ts|·v·dt >= 0 [J/m²] and the number of local
-    iterations.  Each law says at which time within the step it evaluates
-    its strength (slip weakening: μ(δ^n), at t^n, explicit; the rate-and-state
-    laws and the rigid limit of Povirk–Needleman: at t^{n+½}, with V^{n+½}
-    and the state integrated to the middle of the step at that rate, then
-    over the whole step).  The block slider of
+    iterations.  The slip runs along sgn(T_stick − Ts) (= sgn(T_stick) but
+    where a two-step form slips against a T_stick crossing zero).  Each law
+    says at which time within the step it evaluates its strength (slip
+    weakening: μ(δ^n), at t^n, explicit; the rate-and-state laws and the
+    rigid limit of Povirk–Needleman: at t^{n+½}, with V^{n+½} and the state
+    integrated to the middle of the step, against the traction extrapolated
+    to t^{n+½} from Ts and the previous step's, which they keep in their memo:
+    second order).  The block slider of
     :func:`fricfem.friction.reference.drive_rigid` runs the verb in the same
     step and is scored against scipy (tests/test_point_reference.py,
     tests/test_rate_state.py).
@@ -148,7 +151,9 @@ def storage(law: Law, state) -> np.ndarray:
     """The array ``advance`` works on: the state (``law.state`` order) followed
     by ``law.memo`` entries the law may use to remember derived quantities
     between calls (NaN: nothing remembered).  Only the state is physics; the
-    memo never changes a result."""
+    memo never changes a result of ``advance``; a ``rigid`` verb may keep the
+    previous step's traction and slip rate there (its two-step form; NaN: the
+    first step)."""
     return np.concatenate([np.asarray(state, dtype=np.float64), np.full(law.memo, np.nan)])
 
 

@@ -71,9 +71,10 @@ PARAMS = (
 STATE = ("theta0", "theta1", "theta2")
 
 # Storage per point: the three state variables, then a memo of the last
-# strength evaluated, G = g(θ0)(θ1 + θ2), with the θ0 and θ1 + θ2 it belongs to
+# strength evaluated, G = g(θ0)(θ1 + θ2), with the θ0 and θ1 + θ2 it belongs to,
+# then the rigid verb's previous traction T^{n−1} and slip rate V^{n−½}
 # (NaN: none); see :mod:`.povirk_needleman_integrator`.
-N_STORAGE = 6  # len(STATE) + the memo
+N_STORAGE = 8  # len(STATE) + the memo
 
 
 @numba.njit(cache=True)

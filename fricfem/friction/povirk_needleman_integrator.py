@@ -31,6 +31,8 @@ rate reaches hundreds of m/s: the interface stiffness C_s ∂v/∂|T_s| reaches
 """
 
 
+import math
+
 import numba
 import numpy as np
 
@@ -49,6 +51,8 @@ from .povirk_needleman_equations import (B, C, D, GAMMA, L0, L1, L2, M, MU_D, MU
 # step's first-order update (round-off); as a bound it changes no decision.
 # A state of three entries (no memo) is accepted too.
 _KEY_TH0, _KEY_TH, _MEMO_G = 3, 4, 5
+# the rigid verb's history (its two-step form): T^{n−1} [Pa] and V^{n−½} [m/s], signed
+_PREV_T, _PREV_V = 6, 7
 # relative margin on a remembered strength used as a lower bound for a larger
 # θ0 (covers round-off in evaluating g; g itself only grows)
 _BOUND = 1.0 - 1e-12
@@ -357,40 +361,80 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 
 @numba.njit(cache=True)
-def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
-    """One step t^n → t^{n+1} of a rigid split-node pair (contract in :mod:`.base`).
+def _relax(th, target, x):
+    """θ relaxed exactly over a "distance" x >= 0 towards ``target``: θ e^(−x) + target (1 − e^(−x))."""
+    return th * math.exp(-x) - target * math.expm1(-x)
 
-    The rigid limit of the law, taken at the middle of the step, where the
-    pair's slip rate v = V^{n+½} lives: |T_s| = g(θ0)(θ1 + θ2)(1 + v/V0)^(1/m)
-    with T_s = T_stick − Z v sgn(T_stick) and the θ's of t^{n+½}, from the
-    backward-Euler update over dt/2 at v (θ0 = (θ0ⁿ + B dt/2)/(1 + B (dt/2) v/L0),
-    θ1 = (θ1ⁿ + C T_n (dt/2) v/L1)/(1 + (dt/2) v/L1), likewise θ2; T_n = Tn1,
-    the normal traction of the step).  If |T_stick| <= g(θ0ⁿ + B dt/2)(θ1 + θ2)
-    the pair sticks: v = 0, T_s = T_stick.  Otherwise the consistency is
-    solved for y = (1 + v/V0)^(1/m) on [1, y_max] (T_s = 0 at y_max) by the
-    same safeguarded Newton iteration as the elastic sub-step
-    (:func:`_slide_substep` with γ = 1, zero jump rate, h = dt/2 and C_s h = Z:
-    its trial traction is then T_stick and its traction drop Z v).  The θ's
-    then advance by the same backward-Euler update over the whole step at v,
-    and the slip by v dt.  Returns one local iteration count (one implicit
-    solve).
+
+@numba.njit(cache=True)
+def _theta_exact(p, th0, th1, th2, w, Tn, h):
+    """The θ's after h at the constant slip rate w >= 0 and normal traction Tn,
+    exactly (each equation is linear in its θ at constant w): θ0 = θ0 e^(−x) +
+    B h E(x), x = B w h/L0, E(x) = (1 − e^(−x))/x; θ1 → C T_n, θ2 → D T_n over
+    the slip w h/L1, w h/L2."""
+    x = p[B] * w * h / p[L0]
+    E = 1.0 - 0.5 * x if x < 1e-8 else -math.expm1(-x) / x
+    a0 = th0 * math.exp(-x) + p[B] * h * E
+    a1 = _relax(th1, p[C] * Tn, w * h / p[L1])
+    a2 = _relax(th2, p[D] * Tn, w * h / p[L2])
+    return a0, a1, a2
+
+
+@numba.njit(cache=True)
+def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
+    """One step t^n → t^{n+1} of a rigid split-node pair (contract in :mod:`.base`),
+    second order.
+
+    The rigid limit of the law holds at the middle of the step, where the
+    pair's slip rate v = V^{n+½} lives, against the traction of t^{n+½}
+    extrapolated from the step's T^n and the previous step's T^{n−1}:
+    |T̂| = g(θ0)(θ1 + θ2)(1 + v/V0)^(1/m), T̂ = (3 T^n − T^{n−1})/2, T^n =
+    T_stick − Z V^{n+½} (so T̂ = T̂_0 − (3/2) Z V^{n+½}, T̂_0 = (3 T_stick −
+    T^{n−1})/2), with the θ's of t^{n+½} from the backward-Euler update over
+    dt/2 at v (θ0 = (θ0ⁿ + B dt/2)/(1 + B (dt/2) v/L0), θ1 = (θ1ⁿ + C T_n (dt/2)
+    v/L1)/(1 + (dt/2) v/L1), likewise θ2) and T_n = (3 T_n^n − T_n^{n−1})/2.  If
+    |T̂_0| <= g(θ0ⁿ + B dt/2)(θ1 + θ2) the pair sticks: v = 0, T_s = T_stick.
+    Otherwise the consistency is solved for y = (1 + v/V0)^(1/m) on [1, y_max]
+    by the elastic sub-step's safeguarded Newton iteration (:func:`_slide_substep`
+    with γ = 1, zero jump rate, h = dt/2 and C_s h = 3Z/2: its trial traction is
+    then T̂_0 and its traction drop (3/2) Z v).  The θ's then advance exactly at v
+    (the step's mean rate) over the whole step, and the slip by v dt: second
+    order in dt, and at creep (stiff) a perturbation dies out in a step or two
+    with no alternation (the BDF2 rule's damping; :func:`.rate_state.rigid`).
+    The first step (no history: memo NaN) and the first after an opening
+    (T_n^{n−1} <= 0) take T̂ = T^n, the law at the middle of the step against
+    the traction of t^n.  Returns one local iteration count (one implicit solve).
     """
     if dt <= 0.0:
         # Safeguard: no time, no slip (and Z/dt below is undefined)
         return T_stick, 0.0, 0.0, 0.0, 0
     h = 0.5 * dt
-    # γ = 1, vs = 0, C_s = Z/h: T* = T_stick, traction drop h (Z/h) v = Z v
+    hist = s.size >= N_STORAGE and Tn0 > 0.0
+    tp = s[_PREV_T] if hist else np.nan
+    vp = s[_PREV_V] if hist else np.nan
+    if tp == tp and vp == vp:
+        That = 1.5 * T_stick - 0.5 * tp
+        Zh = 1.5 * Z
+        tnh = 1.5 * Tn1 - 0.5 * Tn0
+        if tnh <= 0.0:
+            tnh = Tn1  # Safeguard: a normal traction falling to zero within half a step
+    else:
+        That, Zh, tnh = T_stick, Z, Tn1
+    # γ = 1, vs = 0, C_s = Zh/h: T* = T̂_0, traction drop h (Zh/h) v = Zh v
     Ts1, _, _, _, w, _, _, _ = _slide_substep(
-        p, T_stick, s[0], s[1], s[2], 0.0, 1.0, Tn1, Tn1, 0.0, Z / h, h, 1.0
+        p, That, s[0], s[1], s[2], 0.0, 1.0, tnh, tnh, 0.0, Zh / h, h, 1.0
     )
-    # the state at t^{n+1}: the same update over dt at w
-    a0 = (s[0] + p[B] * dt) / (1.0 + p[B] * dt * w / p[L0])
-    a1 = (s[1] + p[C] * Tn1 * dt * w / p[L1]) / (1.0 + dt * w / p[L1])
-    a2 = (s[2] + p[D] * Tn1 * dt * w / p[L2]) / (1.0 + dt * w / p[L2])
+    vsig = sign(That) * w
+    Ts = T_stick - Z * vsig
+    # the state at t^{n+1}: exact over dt at w
+    a0, a1, a2 = _theta_exact(p, s[0], s[1], s[2], w, tnh, dt)
     s[0] = a0
     s[1] = a1
     s[2] = a2
     # the strength of the new state, for the memo of a later ``advance``
     _remember(s, a0, a1 + a2, strength_factor(p, a0) * (a1 + a2))
+    if s.size >= N_STORAGE:
+        s[_PREV_T] = Ts
+        s[_PREV_V] = vsig
     ds = w * dt
-    return Ts1, w, ds, abs(Ts1) * ds, 1
+    return Ts, w, ds, abs(Ts) * ds, 1

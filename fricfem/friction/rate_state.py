@@ -62,14 +62,16 @@ it, converges to |Δu| <= 1e-12 (relative 1e-12 in w).
   redone shorter (h · 0.9/r), the next grows by at most 2×.  Below
   dt/512 the limits are dropped and the sub-step is backward Euler (γ = 1,
   L-stable).  T_n is linear in time over the bulk step.
-* ``rigid`` (split-node interface): the same solve with S = |T_stick|, the
-  node pair's Z, γ = 1, v_fix = 0 and h = dt/2: w is the pair's slip rate of
-  the step, V^{n+½}, and the law holds at the middle of the step, with the
-  state integrated exactly at w over dt/2; the state then advances exactly
-  at w over the whole step, and the slip by w dt.  SEM2DPACK's bc_dynflt_rsf
-  instead takes two passes at fixed state (state at the old rate, solve V;
-  state at the mean rate, solve V again); the coupled solve here needs no
-  previous rate.
+* ``rigid`` (split-node interface, second order): the same solve at the
+  middle of the step, h = dt/2, against the traction of t^{n+½} extrapolated
+  from T^n and T^{n−1}: S = |3 T_stick − T^{n−1}|/2, Z → 3 Z/2, v_fix =
+  |V^{n−½}|/4, γ = 3/4 (the half step's mean rate); w is the pair's slip rate
+  of the step, V^{n+½}; the state then advances exactly at w over the whole
+  step, and the slip by w dt (:func:`rigid`).  SEM2DPACK's bc_dynflt_rsf
+  (Kaneko et al. 2008), whose velocities and tractions share whole steps,
+  takes two passes at fixed state (state at the old rate, solve V; state at
+  the mean rate, solve V again); the coupled solve here is that second pass
+  iterated to convergence.
 * ``slide`` (imposed slip rate): the exact state update at constant V.
 """
 
@@ -104,6 +106,8 @@ COMMON_PARAMS = (
 )
 
 STATE = ("psi",)
+# the rigid verb's memo: the previous step's traction T^{n−1} [Pa] and slip rate V^{n−½} [m/s], signed
+MEMO = 2
 
 MAX_SUBSTEPS = 512
 _NEWTON_MAXIT = 200
@@ -396,18 +400,48 @@ def advance(kind, p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 @numba.njit(cache=True)
 def rigid(kind, p, s, T_stick, Z, Tn0, Tn1, dt):
     """One step t^n → t^{n+1} of the rigid (split-node) interface (contract in
-    :mod:`.base`), the law taken at the middle of the step, where the pair's
-    slip rate w = V^{n+½} lives: S − Z w = μ(w, Ψ^{n+½}) T_n, Ψ^{n+½} the
-    state integrated exactly at the constant rate w over dt/2 (solved for w
-    with the state, as :func:`solve_rate`); then Ψ^{n+1}, exact at w over dt.
-    The slip over the step is w dt."""
+    :mod:`.base`), second order: the law holds at the middle of the step, where
+    the pair's slip rate w = V^{n+½} lives, against the traction of t^{n+½}
+    extrapolated from the step's T^n and the previous step's T^{n−1}::
+
+        |T̂| = μ(w, Ψ^{n+½}) T_n^{n+½},   T̂ = (3 T^n − T^{n−1})/2,   T^n = T_stick − Z V^{n+½},
+
+    i.e. S − (3/2) Z w with S = |3 T_stick − T^{n−1}|/2 (:func:`solve_rate`), the
+    slip along sgn(3 T_stick − T^{n−1}); Ψ^{n+½} is the state of t^n integrated
+    exactly over dt/2 at the mean rate of that half step, (|V^{n−½}| + 3 w)/4,
+    inside the solve (the corrected pass of Kaneko et al. 2008, iterated to
+    convergence), and T_n^{n+½} = (3 T_n^n − T_n^{n−1})/2.  Then Ψ^{n+1} is exact
+    at w (the mean rate of the step) over dt, and the slip w dt.  In the stiff
+    limit (creep: ∂τ/∂V dt/m ≫ 1) a perturbation of the slip rate is multiplied
+    by ≈ ±i (2 m/(∂τ/∂V dt))^½ per step, the BDF2 rule's: it dies out in a step
+    or two, with no alternation (a form at t^n with V^n = (V^{n−½} + V^{n+½})/2,
+    trapezoidal in V, keeps it undamped).  T^{n−1} and V^{n−½} are the memo
+    s[1], s[2]: NaN (the first step) or a pair that was open (T_n^{n−1} <= 0)
+    takes the law at the middle of the step against T^n itself for that one
+    step (first order in one step: second order overall)."""
     psi = s[0]
-    S = abs(T_stick)
-    u0 = ln_rate(p, S, Tn1, psi)  # first guess: the rate at T_stick with the current state
-    w, pe, Tabs, _, it = solve_rate(kind, p, psi, 0.0, 1.0, 0.5 * dt, S, Z, Tn1, u0)
+    tp = s[1]
+    vp = s[2]
+    if Tn0 > 0.0 and tp == tp and vp == vp:
+        Ssig = 1.5 * T_stick - 0.5 * tp
+        Zh = 1.5 * Z
+        tnh = 1.5 * Tn1 - 0.5 * Tn0
+        if tnh <= 0.0:
+            tnh = Tn1  # Safeguard: a normal traction falling to zero within half a step
+        vfix = 0.25 * abs(vp)
+        gam = 0.75
+    else:
+        Ssig, Zh, tnh, vfix, gam = T_stick, Z, Tn1, 0.0, 1.0
+    S = abs(Ssig)
+    u0 = ln_rate(p, S, tnh, psi)  # first guess: the rate at the trial traction with the current state
+    w, pe, Tabs, _, it = solve_rate(kind, p, psi, vfix, gam, 0.5 * dt, S, Zh, tnh, u0)
+    vsig = sign(Ssig) * w
+    Ts = T_stick - Z * vsig
     s[0] = state_end(kind, p, psi, w, dt)[0]
+    s[1] = Ts
+    s[2] = vsig
     ds = w * dt
-    return sign(T_stick) * Tabs, w, ds, Tabs * ds, max(it, 1)
+    return Ts, w, ds, abs(Ts) * ds, max(it, 1)
 
 
 @numba.njit(cache=True)

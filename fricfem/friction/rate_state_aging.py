@@ -35,8 +35,8 @@ def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 @numba.njit(cache=True)
 def rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
-    """One step of a rigid split-node pair (contract in :mod:`.base`): the law at
-    the middle of the step (:func:`.rate_state.rigid`)."""
+    """One step of a rigid split-node pair (contract in :mod:`.base`): second
+    order, the law at the middle of the step (:func:`.rate_state.rigid`)."""
     return rs.rigid(KIND, p, s, T_stick, Z, Tn0, Tn1, dt)
 
 
@@ -73,4 +73,5 @@ LAW = Law(
     slide=slide,
     rates=rates,
     rigid=rigid,
+    memo=rs.MEMO,
 )

@@ -277,7 +277,10 @@ def drive_rigid(law: Law, params, t, force: Callable, mass: float, Tn, V_init: f
         dm = 0.5 * (t[k + 1] - t[k - 1]) if k > 0 else 0.5 * dt
         Tst = m * v_prev / dm + force(t[k])
         Ts, v, ds, dw, it = law.rigid(p, s, Tst, m / dm, Tn_f(t[k - 1] if k > 0 else t[0]), Tn_f(t[k]), dt)
-        v_prev = V[k] = math.copysign(v, Tst) if v > 0.0 else 0.0
+        # the slip's direction: that of T_stick − T^n (= sgn(T_stick) unless a law's
+        # two-step form slips against T_stick, where T_stick crosses zero)
+        d = Tst - Ts
+        v_prev = V[k] = math.copysign(v, d if d != 0.0 else Tst) if v > 0.0 else 0.0
         T[k] = Ts
         slip[k + 1] = slip[k] + ds
         work[k + 1] = work[k] + dw
