@@ -109,7 +109,8 @@ def test_rate_state_rigid_creep_no_alternation(name):
     the rate at which the law carries the force within a few steps and then
     follows the state's slow evolution: the increments of V keep their sign (no
     alternation) and change by less than 1 % from step to step over the last 60
-    steps, and the traction equals the force to 1e-9."""
+    steps, and the traction equals the force to 1e-9.  The trapezoidal form
+    (the law at t^n with the mean of V^{n∓½}) flips the sign of every increment."""
     law, kind, p = _rsf(name)
     m, Tn, Vi = 0.1, 10 * MPa, 1e-6
     psi0 = rs.psi_ss_py(kind, p, Vi)
@@ -122,4 +123,27 @@ def test_rate_state_rigid_creep_no_alternation(name):
     # the quasi-static rate of the state at the middle of the step
     v_qs = 2 * p[rs.V0] * math.sinh(F1 / (p[rs.A] * Tn)) * math.exp(-st[-2, 0] / p[rs.A])
     assert V[-1] == pytest.approx(v_qs, rel=1e-3)
+    # the same check catches the form trapezoidal in V (the law at t^n with
+    # V^n = (V^{n−½} + V^{n+½})/2): it alternates at every step
+    Vt = _trapezoidal(kind, p, F1, m, Tn, Vi, psi0, t)
+    flips_t, ratio_t = _increments_settle(Vt, 60)
+    assert flips_t == 59 and np.all(np.abs(ratio_t - 1.0) < 0.01)
+
+
+def _trapezoidal(kind, p, F, m, Tn, V_init, psi0, t):
+    """The block in the split-node step with the law at t^n and V^n the mean of
+    V^{n∓½} (the trapezoidal form, here only to show what the checks catch):
+    T_stick − Z V^{n+½} = μ((V^{n−½} + V^{n+½})/2, Ψ^n) T_n; Ψ^{n+1} exact at V^{n+½}."""
+    from scipy.optimize import brentq
+
+    V, vp, psi = [], V_init, psi0
+    for k in range(len(t) - 1):
+        dt = t[k + 1] - t[k]
+        dm = 0.5 * (t[k + 1] - t[k - 1]) if k > 0 else 0.5 * dt
+        Z, Tst = m / dm, m * vp / dm + F
+        w = brentq(lambda x: Tst - Z * x - rs.mu(p, 0.5 * (vp + x), psi) * Tn, 0.0, Tst / Z, xtol=1e-30, rtol=1e-14)
+        psi = rs.state_end(kind, p, psi, w, dt)[0]
+        V.append(w)
+        vp = w
+    return np.array(V)
 
