@@ -145,7 +145,8 @@ def test_pyvista_reads_every_field(run):
     got = json.loads(res.stdout.strip().splitlines()[-1])
     assert [g["t"] for g in got] == pytest.approx(list(FieldReader(out / "fields.xdmf").times))
     for g, k in zip(got, range(2)):
-        assert g["points"] == ["displacement", "velocity"] and g["cells"] == ["stress_difference"]
+        assert g["points"] == ["displacement", "stress_difference_nodal", "velocity"]  # σ1 − σ2 also at the nodes
+        assert g["cells"] == ["stress_difference"]
         u = FieldReader(out / "fields.xdmf", "displacement").values(k)
         assert g["u_max"] == pytest.approx(float(np.abs(u).max()))
         assert g["s_median"] == pytest.approx(6e6, rel=0.1)  # σ1 − σ2 with the prestress Σ0 = 6 MPa

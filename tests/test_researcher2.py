@@ -10,6 +10,7 @@ Under ``mpirun -n 2``: the runs are on both ranks; rank 0 reads and draws.
 
 from __future__ import annotations
 
+import importlib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -112,3 +113,139 @@ def test_nodal_stress_is_the_area_weighted_mean_of_the_cells(fields_run):
         assert cells[around].min() - 1e-6 <= nodal[node] <= cells[around].max() + 1e-6
     # a constant field stays constant
     assert np.allclose(to_nodes(nodal_projection(topo, pts), np.full(len(topo), 7.0)), 7.0, rtol=1e-14)
+
+
+@pytest.fixture(scope="module")
+def coarse_case3(tmp_path_factory):
+    """case3 on the coarse mesh to 40 µs (rows every 265 ns), snapshots at 16, 28, 32 µs."""
+    out = _tmp(tmp_path_factory, "coarse_case3")
+    runner.run_scene(load_scene("case3", ["mesh.preset='coarse'", "output.fields=[16e-6,28e-6,32e-6]"]),
+                     out, COMM, quiet=True)
+    return out
+
+
+def _kept(monkeypatch, *modules) -> dict:
+    from fricfem.plot import common
+
+    figures = {}
+
+    def keep(fig, path, **kw):
+        figures[Path(path).name] = fig
+        return common.save(fig, path, **kw)
+
+    for m in modules:
+        monkeypatch.setattr(m, "save", keep)
+    return figures
+
+
+def test_interface_figures_ask_round_times_and_say_the_rows_drawn(coarse_case3, tmp_path, monkeypatch):
+    """Rows are 0.265 µs apart: the default figures ask 10, 20, 30 µs and the last row, and each
+    figure's legend and title give the time of the row it draws (was '19.9' for 19.875 µs,
+    from asked times 9.9, 19.9, 29.8 µs of an even split)."""
+    if RANK:
+        return
+    from fricfem.output.rundir import open_interface
+    from fricfem.plot import interface, run as plot_run
+
+    figures = _kept(monkeypatch, interface)
+    plot_run.plot_run(coarse_case3, out=tmp_path)
+    with open_interface(coarse_case3) as itf:
+        t, x = np.array(itf.time), np.array(itf.x1)
+        rate = itf.all("slip_rate")
+    rows = [int(np.argmin(np.abs(t - a))) for a in (10e-6, 20e-6, 30e-6, t[-1])]
+    drawn = {}
+    for name, fig in figures.items():
+        if name.startswith("interface_"):
+            ax = fig.axes[0]
+            labels = [h.get_text() for h in ax.get_legend().get_texts()]
+            drawn[labels[-1]] = (fig, ax)
+    assert sorted(drawn) == sorted(f"t = {t[r] * 1e6:.2f} µs" for r in rows)
+    for r in rows:
+        fig, ax = drawn[f"t = {t[r] * 1e6:.2f} µs"]
+        assert f"{t[r] * 1e6:.2f} µs" in fig._suptitle.get_text()
+        solid = [ln for a in fig.axes for ln in a.lines if ln.get_linestyle() == "-" and len(ln.get_xdata()) == len(x)
+                 and np.array_equal(ln.get_xdata(), x * 1e3)]
+        assert any(np.array_equal(ln.get_ydata(), rate[r]) for ln in solid)  # the row the label names
+    assert "19.87 µs" in [k[4:] for k in drawn]  # the row nearest 20 µs (19.875 µs), said as it is
+
+
+def test_plot_times_say_which_snapshots_are_drawn(coarse_case3, tmp_path, caplog):
+    """--times 12,24 drew the snapshots at 16 and 28 µs and silently left out 32 µs."""
+    if RANK:
+        return
+    import logging
+
+    from fricfem.plot import run as plot_run
+
+    with caplog.at_level(logging.WARNING, logger="fricfem.output"):
+        paths = plot_run.plot_run(coarse_case3, times=[12e-6, 24e-6], out=tmp_path)
+    names = sorted(p.name for p in paths if p.name.startswith("isochromatics_"))
+    assert names == ["isochromatics_15.9us.png", "isochromatics_28.1us.png"]
+    text = caplog.text
+    assert "not drawn: 32.06 µs" in text
+    assert "asked 12.00 µs, drew the nearest stored time 15.90 µs" in text
+
+
+def test_mode_says_the_coarse_mesh_does_not_resolve_its_pulses(coarse_case3, tmp_path, monkeypatch):
+    """case3 is 'mixed' on coarse (pulses one cell wide) and 'pulse' on reference: the label's
+    evidence, reason and the figures' titles say how many cells a pulse spans and the minimum."""
+    if RANK:
+        return
+    import json
+
+    cl = importlib.import_module("fricfem.analysis.classify")  # the package exports the function classify
+    from fricfem.plot import run as plot_run, spacetime, tip
+
+    mode = json.loads((coarse_case3 / "summary.json").read_text())["mode"]
+    res = mode["evidence"]["resolution"]
+    assert res["min_cells_per_pulse"] == cl.MIN_CELLS_PER_PULSE
+    assert res["cells_per_pulse"] < cl.MIN_CELLS_PER_PULSE and res["resolved"] is False
+    assert "does not resolve the pulses" in mode["evidence"]["reason"]
+    figures = _kept(monkeypatch, spacetime, tip)
+    plot_run.plot_run(coarse_case3, out=tmp_path)
+    want = f"pulses {res['cells_per_pulse']:.1f} cells wide, < {cl.MIN_CELLS_PER_PULSE:g} needed"
+    assert want in figures["spacetime.png"].axes[0].get_title()
+    assert want in figures["tip_speed.png"]._suptitle.get_text()
+
+
+def test_pulse_resolution_counts_cells_of_the_late_pulses():
+    """Synthetic: pulses 8 points (2 cells) wide are under-resolved, 24 points (6 cells) resolved."""
+    cl = importlib.import_module("fricfem.analysis.classify")  # the package exports the function classify
+    from fricfem.analysis.regions import Region
+
+    def reg(i0, n):
+        return Region(i0, i0 + n - 1, 0.0, 1.0, n * 1e-4, 1.0, 0.5)
+
+    narrow = [[reg(10, 8), reg(40, 8)], [reg(12, 8), reg(42, 8)]]
+    snaps = {0: {"cats": ["pulse", "pulse"]}, 1: {"cats": ["pulse", "pulse"]}}
+    assert cl.pulse_resolution(narrow, [0, 1], snaps)["cells_per_pulse"] == 2.0
+    assert cl.pulse_resolution(narrow, [0, 1], snaps)["resolved"] is False
+    wide = [[reg(10, 24)], [reg(12, 24)]]
+    one = {0: {"cats": ["pulse"]}, 1: {"cats": ["pulse"]}}
+    assert cl.pulse_resolution(wide, [0, 1], one) == {"cells_per_pulse": 6.0, "pulse_width_m": pytest.approx(24e-4),
+                                                       "min_cells_per_pulse": cl.MIN_CELLS_PER_PULSE,
+                                                       "resolved": True}
+    crack = {0: {"cats": ["crack"]}, 1: {"cats": ["crack"]}}
+    assert cl.pulse_resolution(wide, [0, 1], crack)["resolved"] is True  # no pulse to resolve
+
+
+def test_fronts_of_an_unstruck_rupture_are_named_by_direction(tmp_path_factory):
+    """rupture_sw (no impact): the crack grows both ways from its patch; the left-going rupture
+    front was listed as 'trailing'.  Struck runs keep leading/trailing."""
+    import json
+
+    out = _tmp(tmp_path_factory, "rupture_sw")
+    runner.run_scene(load_scene("rupture_sw", ["time.end=12e-6"]), out, COMM, quiet=True)
+    if RANK:
+        return
+    fronts = json.loads((out / "summary.json").read_text())["fronts"]
+    rupture = [f for f in fronts if f["kind"] == "rupture"]
+    assert {f["edge"] for f in rupture} == {"toward +x1", "toward -x1"}
+    for f in rupture:
+        assert (f["mean_speed"] > 0) == (f["edge"] == "toward +x1")
+        assert f["region_side"] == ("leading" if f["mean_speed"] > 0 else "trailing")
+    from fricfem.output.record import split, struck
+
+    record = {"input": {"loading": {"v_imp": 20.0}}, "fronts": [{"kind": "rupture", "edge": "trailing",
+                                                                  "mean_speed": -300.0, "t": [], "x": []}]}
+    assert struck(record) and split(record)[0]["fronts"][0]["edge"] == "trailing"

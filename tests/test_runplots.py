@@ -190,7 +190,7 @@ def run_plots(tmp_path_factory):
 def test_every_figure_is_drawn(run_plots):
     rundir, paths = run_plots
     with rd.open_interface(rundir) as itf:
-        rows = itf.nearest(rd.default_times(itf))
+        rows = itf.nearest(plot_run.default_interface_times(itf))
         tags = {rd.time_tag(t) for t in itf.time[rows]}
     assert len(tags) == 4
     expected = {f"interface_{tag}.png" for tag in tags}
@@ -435,6 +435,8 @@ def test_interface_panel_b_draws_the_rate_of_shear_traction_whatever_the_step(tm
         curves.append(line.get_ydata())
     np.testing.assert_allclose(curves[0], curves[1], rtol=1e-12, atol=1e-12)
 
+
+
 def test_station_legend_leaves_the_panel_and_its_letter_clear(run_plots, tmp_path, monkeypatch):
     """The tractions legend of panel (c) lies outside the panel, so it covers neither the
     T_s and T_n curves nor the "(c)" label (with loc="best" it hid the label)."""
@@ -486,6 +488,7 @@ def test_interface_host_curves_are_drawn_over_their_twins(run_plots, tmp_path, m
             assert twin.lines[0].get_linewidth() >= 2 * host.lines[0].get_linewidth()
             assert twin.lines[0].get_alpha() < 1
         assert not any(t.get_text().startswith("(") for t in twin.texts)
+
 
 def test_isochromatics_keep_the_interface_clear_and_show_a_rupture_box_whole(run_plots, tmp_path, monkeypatch):
     """The sliding zones are a strip above the fringe picture at their x1 (the orange bar on x2 = 0

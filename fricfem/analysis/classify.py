@@ -39,6 +39,15 @@ from .tip import tip_speed
 #: Mode labels returned by :func:`classify`.
 LABELS = ("none", "crack-like", "pulse", "pulse-train", "mixed")
 
+#: The fewest interface cells across a pulse's width for the pulses a label counts to be
+#: resolved.  Linear elements need a few cells to carry a pulse's rise, peak and fall; on
+#: the shipped meshes Case III's late pulses span 1.0 cell on ``coarse`` (label "mixed")
+#: and 5.5 on ``reference`` ("pulse", as on ``half``): below this the label is said to
+#: depend on the mesh (``evidence["resolution"]``).
+MIN_CELLS_PER_PULSE = 4.0
+#: interface points per mesh cell along the interface (its Gauss points)
+POINTS_PER_CELL = 4
+
 #: Snapshot types (one slip-rate profile).
 SNAPSHOT_TYPES = ("stick", "nucleation", "crack", "pulses", "train", "crack+pulses")
 _PULSE_TYPES = ("pulses", "train", "crack+pulses")
@@ -232,7 +241,9 @@ def classify(time, x1, slip_rate, speeds, criteria: Criteria = Criteria()):
     profiles before.
 
     evidence (JSON-ready dict):
-      ``reason``; ``t_first_slip`` [s], ``x_first_slip`` [m]; ``late_window``
+      ``reason`` (ends by saying so when the pulses are under-resolved);
+      ``resolution`` (:func:`pulse_resolution`: cells per pulse width against
+      :data:`MIN_CELLS_PER_PULSE`); ``t_first_slip`` [s], ``x_first_slip`` [m]; ``late_window``
       [s], ``late_type``, ``late_types`` (counts), ``types`` (counts over the
       history), ``longest_pulse_phase`` (samples, before the late window);
       ``last``: the last sliding profile — ``t``, ``n_regions``, ``regions``
@@ -273,9 +284,34 @@ def classify(time, x1, slip_rate, speeds, criteria: Criteria = Criteria()):
     snaps, hist = _snapshots(time, x1, regions, w, v_edge, v_prior, c)
     late, counts, late_type, longest = _late(time, sliding, snaps, c)
     label, reason = _label(late_type, longest, c)
-    evidence = {"reason": reason, **_evidence(time, x1, regions, sliding, snaps, hist, late, counts, late_type,
+    resolution = pulse_resolution(regions, late, snaps)
+    if not resolution["resolved"]:
+        reason += (f"; the mesh does not resolve the pulses it counts: {resolution['cells_per_pulse']:.1f} cells "
+                   f"per pulse width (median over the late window), fewer than {MIN_CELLS_PER_PULSE:g}: the label "
+                   f"may change on a finer mesh")
+    evidence = {"reason": reason, "resolution": resolution, **_evidence(time, x1, regions, sliding, snaps, hist, late, counts, late_type,
                                               longest, tracks, v_edge, w, sp, c)}
     return label, jsonable(evidence)
+
+
+def pulse_resolution(regions, late, snaps) -> dict:
+    """How many interface cells the pulses of the late window span: ``cells_per_pulse``
+    (median over those pulses of their points / :data:`POINTS_PER_CELL`; None when
+    the late profiles hold no pulse), ``pulse_width_m`` (their median width),
+    ``min_cells_per_pulse`` (:data:`MIN_CELLS_PER_PULSE`) and ``resolved`` (True
+    when there is no pulse to resolve)."""
+    cells, widths = [], []
+    for k in late:
+        for r, cat in zip(regions[k], snaps[k]["cats"]):
+            if cat == "pulse":
+                cells.append((r.i1 - r.i0 + 1) / POINTS_PER_CELL)
+                widths.append(r.width)
+    if not cells:
+        return {"cells_per_pulse": None, "pulse_width_m": None, "min_cells_per_pulse": MIN_CELLS_PER_PULSE,
+                "resolved": True}
+    n = float(np.median(cells))
+    return {"cells_per_pulse": n, "pulse_width_m": float(np.median(widths)),
+            "min_cells_per_pulse": MIN_CELLS_PER_PULSE, "resolved": bool(n >= MIN_CELLS_PER_PULSE)}
 
 
 def _snapshots(time, x1, regions, w, v_edge, v_prior, c):

@@ -99,8 +99,26 @@ def _brief_tip(tip: dict) -> dict:
             "v_tip_median_m_s": float(np.median(vf)) if len(vf) else None}
 
 
-def _brief_front(front: dict) -> dict:
+def struck(record: dict) -> bool:
+    """Whether a run's record is of a struck plate (an edge velocity V_imp > 0 or the
+    experiment's projectile); unknown counts as struck."""
+    inp = record.get("input") or {}
+    v_imp = (inp.get("loading") or {}).get("v_imp")
+    return bool(inp.get("experiment")) or not isinstance(v_imp, (int, float)) or v_imp > 0
+
+
+def _brief_front(front: dict, by_direction: bool = False) -> dict:
+    """A front as summary.json lists it.  ``by_direction`` (a run with no impact,
+    where "leading"/"trailing" mean nothing: a crack grows both ways from its
+    patch): ``edge`` is the way the front moves, ``toward +x1`` or ``toward -x1``
+    (``stationary``), and ``region_side`` keeps the side of the slipping region
+    the edge bounds (``leading``: stick at larger x1)."""
     d = _scalars(front)
+    if by_direction and "edge" in d:
+        v = d.get("mean_speed")
+        d["region_side"] = d["edge"]
+        d["edge"] = ("stationary" if d.get("kind") == "stationary" or not isinstance(v, (int, float))
+                     else "toward +x1" if v > 0 else "toward -x1")
     t, x = _finite(front.get("t")), np.asarray(front.get("x") or [], dtype=float)
     if len(t):
         d.update(t_start_s=float(t[0]), t_end_s=float(t[-1]))
@@ -120,7 +138,7 @@ def split(record: dict) -> tuple[dict, dict]:
         evidence["tip"] = tip
     if record.get("fronts") is not None:
         fronts = record["fronts"]
-        summary["fronts"] = [_brief_front(f) for f in fronts]
+        summary["fronts"] = [_brief_front(f, by_direction=not struck(record)) for f in fronts]
         evidence["fronts"] = fronts
     if record.get("mode") is not None:
         mode = dict(record["mode"])

@@ -55,6 +55,42 @@ def stress_unit(values) -> tuple[float, str]:
     return (1e-3, "kPa") if peak < 1e5 else (1e-6, "MPa")
 
 
+def us(t: float) -> str:
+    """A row's time [s] as figures print it: µs to 0.01 µs (rows are 0.2048 µs apart
+    on the default step, so 19.87 µs is not rounded to a "20" it is not)."""
+    return f"{t * 1e6:.2f}"
+
+
+def round_times(t_first: float, t_last: float, n: int = 3) -> np.ndarray:
+    """``n`` round times [s] (multiples of 1, 2 or 5 × 10^k µs) evenly spread over
+    (``t_first``, ``t_last``), ascending, each inside the range: the times the
+    default interface figures ask for (each drawn at its nearest row, labelled
+    with that row's own time)."""
+    span = t_last - t_first
+    if not span > 0:
+        return np.array([t_last])
+    raw = span / (n + 1)
+    mag = 10.0 ** np.floor(np.log10(raw))
+    step = next((m * mag for m in (1.0, 2.0, 5.0, 10.0) if m * mag >= raw * (1.0 - 1e-9)), 10.0 * mag)
+    k = np.arange(np.ceil(t_first / step + 1e-9), np.floor(t_last / step - 1e-9) + 1)
+    times = k * step
+    times = times[(times > t_first) & (times < t_last)]
+    return times[np.round(np.linspace(0, len(times) - 1, min(n, len(times)))).astype(int)] if len(times) else times
+
+
+def mode_text(mode) -> str | None:
+    """The mode as figure titles print it: the label, and when the mesh does not
+    resolve the pulses it counts, their cells per pulse width against the minimum
+    (summary.json's ``mode.evidence.resolution``: :func:`fricfem.analysis.classify.pulse_resolution`)."""
+    if not isinstance(mode, dict) or not mode.get("label"):
+        return None
+    res = (mode.get("evidence") or {}).get("resolution") or {}
+    n, least = res.get("cells_per_pulse"), res.get("min_cells_per_pulse")
+    if res.get("resolved") is False and n is not None and least is not None:
+        return f"{mode['label']} (mesh-dependent: pulses {n:.1f} cells wide, < {least:g} needed)"
+    return str(mode["label"])
+
+
 def time_styles(n: int) -> list[str]:
     """Line styles for ``n`` times, the last one solid (earlier ones dashed, as the paper)."""
     cycle = ["--", ":", "-."]

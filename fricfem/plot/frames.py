@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..output.rundir import FieldReader, RunInfo, log
-from .common import DPI, save
+from .common import DPI, save, us
 from .isochromatics import F_SIGMA, ISO_WINDOW, THICKNESS, fringe_image, sliding_zones
 
 
@@ -49,7 +49,7 @@ def frame_series(fields_path, path, times, *, info: RunInfo | None = None, itf=N
         ax.axhline(0.0, color="C3", lw=0.6, ls="--")
         for a, b in sliding_zones(itf, t):
             ax.plot([a * 1e3, b * 1e3], [0.0, 0.0], color="C1", lw=2.5, solid_capstyle="butt")
-        ax.set_title(f"{t * 1e6:.3g} µs", fontsize=8, pad=2)
+        ax.set_title(f"{us(t)} µs", fontsize=8, pad=2)
         ax.tick_params(labelsize=6)
         ax.set_aspect("equal")
     for ax in axes[n:]:

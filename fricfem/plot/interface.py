@@ -9,7 +9,7 @@ from matplotlib.lines import Line2D
 
 from ..output.regions import region_spans
 from ..output.rundir import RunInfo, open_interface, run_info, sliding_sign
-from .common import PLOTTED, SIGNED, color_axis, figure, label, markers, panel_letter, save, stress_unit, time_styles
+from .common import PLOTTED, SIGNED, color_axis, figure, label, markers, panel_letter, save, stress_unit, time_styles, us
 
 
 
@@ -52,7 +52,7 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
             axr.plot(x, sign * ts[k] / 1e6, "C3", ls=styles[k], lw=1.2, **(mk if k == len(rows) - 1 else {}))
         color_axis(ax, "C0", label("slip_rate") + " [m/s]")
         color_axis(axr, "C3", label("shear_traction", sign) + " [MPa]")
-        ax.legend(handles=[Line2D([], [], color="k", ls=s, label=f"t = {tk * 1e6:.3g} µs")
+        ax.legend(handles=[Line2D([], [], color="k", ls=s, label=f"t = {us(tk)} µs")
                            for s, tk in zip(styles, t)], loc="upper right", fontsize=8, framealpha=0.8)
 
         _host_on_top(ax, axr)
@@ -76,8 +76,8 @@ def interface_distributions(src, times, path, *, info: RunInfo | None = None, si
                          va="bottom", ha="center", fontsize=8, color="0.4")
         axes[-1].set_xlim(xlim[0] * 1e3, xlim[1] * 1e3)
         axes[-1].set_xlabel(r"$x_1$ [mm]")
-        when = ", ".join(f"{tk * 1e6:.3g}" for tk in t)
-        later = f"; {'(b)–(d)' if full else '(b)'} at t = {t[-1] * 1e6:.3g} µs" if len(t) > 1 else ""
+        when = ", ".join(us(tk) for tk in t)
+        later = f"; {'(b)–(d)' if full else '(b)'} at t = {us(t[-1])} µs" if len(t) > 1 else ""
         fig.suptitle(f"{info.title()}\ninterface at t = {when} µs{later}", fontsize=10)
         fig.tight_layout()
         return save(fig, path)

@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, log, time_tag
-from .common import DPI, save
+from .common import DPI, save, us
 
 #: Defaults of the fringe order N = (σ1 − σ2) h / f_σ (a scene's ``output.f_sigma``, ``output.thickness``):
 #: the stress-optic constant commonly quoted for Homalite-100 [N/m] (the paper gives none: docs/model.md §10)
@@ -145,7 +145,7 @@ def isochromatics(fields_path, out_dir, *, times=None, info: RunInfo | None = No
         b = grid.bounds
         win = (max(window[0], b[0]), min(window[1], b[1]), max(window[2], b[2]), min(window[3], b[3]))
         image = fringe_image(grid, win, thickness=thickness, f_sigma=f_sigma)
-        title = f"{info.title()}\nisochromatics at t = {t * 1e6:.3g} µs"
+        title = f"{info.title()}\nisochromatics at t = {us(t)} µs"
         written.append(isochromatic_figure(image, win, Path(out_dir) / f"isochromatics_{time_tag(t)}.png",
                                            title=title, sliding=sliding_zones(itf, t),
                                            thickness=thickness, f_sigma=f_sigma))

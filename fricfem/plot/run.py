@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import logging
 import os
 import sys
@@ -33,11 +34,12 @@ from pathlib import Path
 
 from ..output.quantities import FIELDS_FILE, INTERFACE_FILE
 from ..output.recorder import h5_error
-from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, default_times, log, open_interface, read_summary, \
+from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, log, open_interface, read_summary, \
     run_info, sliding_sign, time_tag
 from ..analysis.tip import tip_record
 from .interface import interface_distributions
 from .frames import frame_series
+from .common import mode_text, round_times, us
 from .isochromatics import F_SIGMA, THICKNESS, isochromatics
 from .spacetime import spacetime
 from .station import station_history
@@ -66,8 +68,12 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
     """Write every figure a run directory supports; return the PNG paths.
 
     ``times`` [s]: interface distributions and isochromatics at the stored
-    times nearest to these (default: 3 evenly spaced plus the last row for
-    the interface, every written snapshot for the isochromatics).
+    times nearest to these (default: 3 round times, e.g. 10, 20, 30 µs, plus
+    the last row for the interface; every written snapshot for the
+    isochromatics).  Each figure is labelled with the time of the row or
+    snapshot it draws (to 0.01 µs); an asked time more than 1 % from its
+    nearest stored one is named in a warning, and with ``times`` the
+    snapshots left out are named too.
     ``out``: output directory (default ``RUNDIR/plots``). What a run did not
     write (interface.h5, summary.json keys, fields.xdmf, pyvista) is skipped
     with a warning on the ``fricfem.output`` logger.
@@ -89,6 +95,8 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
         except (OSError, KeyError) as err:  # not HDF5, or not fricfem's layout
             raise ValueError(f"{h5path}: not readable as a run's interface.h5 ({h5_reason(err)})") from None
         info = run_info(rundir, interface=itf, summary=summary)
+        if mode_text(summary.get("mode")):  # the label, and whether the mesh resolves its pulses
+            info = dataclasses.replace(info, mode=mode_text(summary.get("mode")))
         if itf is None:
             log.warning("%s: absent; interface figures skipped", h5path)
         elif itf.n_time == 0:
@@ -106,10 +114,19 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
     return written
 
 
+def default_interface_times(itf: InterfaceFile) -> list:
+    """The times [s] the interface figures ask for by default: 3 round times (10, 20,
+    30 µs for a 40 µs run: :func:`~.common.round_times`) and the last row's, each
+    drawn at its nearest row and labelled with that row's time."""
+    return [*round_times(float(itf.time[0]), float(itf.time[-1])), float(itf.time[-1])]
+
+
 def _interface_figures(itf: InterfaceFile, out: Path, times, info: RunInfo, summary: dict) -> list[Path]:
     written = []
     sign = sliding_sign(itf)
-    rows = itf.nearest(default_times(itf) if times is None else times)
+    asked = default_interface_times(itf) if times is None else list(times)
+    rows = itf.nearest(asked)
+    _say_nearest("interface figures", asked, itf.time, rows)
     for k, row in enumerate(rows):
         pair = itf.time[rows[max(0, k - 1) : k + 1]]  # the previous chosen time dashed, as the paper
         path = out / f"interface_{time_tag(itf.time[row])}.png"
@@ -120,6 +137,16 @@ def _interface_figures(itf: InterfaceFile, out: Path, times, info: RunInfo, summ
     if itf.has("slip_rate"):
         written.append(spacetime(itf, out / "spacetime.png", summary=summary, info=info))
     return written
+
+
+def _say_nearest(what: str, asked, stored, rows) -> None:
+    """A warning for each asked time [s] whose nearest stored row is off by more
+    than 1 % of it (or outside the run), naming the time drawn instead."""
+    off = [(float(a), float(stored[r])) for a, r in zip(asked, rows)
+           if abs(float(stored[r]) - float(a)) > 0.01 * max(abs(float(a)), 1e-9)]
+    if off:
+        log.warning("%s: %s", what, "; ".join(f"asked {us(a)} µs, drew the nearest stored time {us(t)} µs"
+                                              for a, t in off))
 
 
 def _capped(what: str, times, limit: int) -> list:
@@ -150,7 +177,15 @@ def _isochromatic_figures(rundir: Path, out: Path, times, info: RunInfo, itf,
         log.warning("%s: not readable (%s); isochromatics skipped", fields, err)
         return []
     # one figure per snapshot (or per snapshot nearest a time asked for), at most max_figures of them
-    stored = [float(reader.times[i]) for i in sorted(set(reader.nearest(times)))]
+    nearest = reader.nearest(times)
+    stored = [float(reader.times[i]) for i in sorted(set(nearest))]
+    if times is not None:  # say what --times drew and which snapshots it left out
+        _say_nearest("isochromatic figures", times, reader.times, nearest)
+        left = [float(t) for i, t in enumerate(reader.times) if i not in set(nearest)]
+        log.warning("isochromatic figures: --times %s µs drew the snapshots at %s µs; not drawn: %s",
+                    ", ".join(us(t) for t in times), ", ".join(us(t) for t in stored),
+                    (", ".join(us(t) for t in left) + " µs (no asked time nearest to them; "
+                     "omit --times for every snapshot)") if left else "none")
     times = _capped("isochromatic figures (snapshots)", stored, max_figures)
     # the scene's specimen thickness and fringe constant; its camera frames as one series
     photo = read_summary(rundir).get("photoelastic") or {}
