@@ -11,6 +11,7 @@ Under ``mpirun -n 2``: the runs are on both ranks; rank 0 reads and draws.
 from __future__ import annotations
 
 import importlib
+import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -249,3 +250,32 @@ def test_fronts_of_an_unstruck_rupture_are_named_by_direction(tmp_path_factory):
     record = {"input": {"loading": {"v_imp": 20.0}}, "fronts": [{"kind": "rupture", "edge": "trailing",
                                                                   "mean_speed": -300.0, "t": [], "x": []}]}
     assert struck(record) and split(record)[0]["fronts"][0]["edge"] == "trailing"
+
+
+@pytest.mark.skipif(not (shutil.which("pvbatch") and shutil.which("xvfb-run")),
+                    reason="ParaView's pvbatch and xvfb-run are not installed (apt-get install paraview xvfb)")
+def test_paraview_snapshot_script_colours_by_stress_and_velocity(fields_run, tmp_path):
+    """docs/paraview.md's script under ``xvfb-run -a pvbatch``: two screenshots of the last
+    snapshot, the stress range the file's own nodal σ1 − σ2 (prestress included)."""
+    if RANK:
+        return
+    import subprocess
+
+    from rankcheck import serial_env
+
+    script = Path(__file__).resolve().parents[1] / "scripts" / "paraview_snapshot.py"
+    res = subprocess.run(["xvfb-run", "-a", "pvbatch", str(script), str(fields_run / "fields.xdmf"),
+                          "--out", str(tmp_path)], capture_output=True, text=True, env=serial_env(), timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    pngs = sorted(p.name for p in tmp_path.glob("paraview_*.png"))
+    from fricfem.output.rundir import FieldReader
+
+    tag = f"{round(float(FieldReader(fields_run / 'fields.xdmf').times[-1]) * 1e6, 2):g}us"  # the last snapshot
+    assert pngs == [f"paraview_stress_{tag}.png", f"paraview_velocity_{tag}.png"]
+    assert all((tmp_path / p).stat().st_size > 10_000 for p in pngs)
+    line = next(s for s in res.stdout.splitlines() if "stress_difference_nodal" in s)
+    lo, hi = (float(v) for v in line.rsplit("from", 1)[1].split(" to "))
+    snap = sorted((fields_run / "fields").glob("t*.h5"))[-1]
+    with h5py.File(snap, "r") as f:
+        nodal = next(iter(f["Function/stress_difference_nodal"].values()))[:, 0]
+    assert lo == pytest.approx(nodal.min(), rel=1e-3) and hi == pytest.approx(nodal.max(), rel=1e-3)
