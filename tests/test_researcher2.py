@@ -118,9 +118,10 @@ def test_nodal_stress_is_the_area_weighted_mean_of_the_cells(fields_run):
 
 @pytest.fixture(scope="module")
 def coarse_case3(tmp_path_factory):
-    """case3 on the coarse mesh to 40 µs (rows every 265 ns), snapshots at 16, 28, 32 µs."""
+    """case3 on the coarse mesh to 40 µs (rows every 265 ns), snapshots at 16, 28, 32 µs, two gauges."""
     out = _tmp(tmp_path_factory, "coarse_case3")
-    runner.run_scene(load_scene("case3", ["mesh.preset='coarse'", "output.fields=[16e-6,28e-6,32e-6]"]),
+    runner.run_scene(load_scene("case3", ["mesh.preset='coarse'", "output.fields=[16e-6,28e-6,32e-6]",
+                                          "output.gauges={above=[0.02,0.004],below=[0.03,-0.006]}"]),
                      out, COMM, quiet=True)
     return out
 
@@ -279,3 +280,33 @@ def test_paraview_snapshot_script_colours_by_stress_and_velocity(fields_run, tmp
     with h5py.File(snap, "r") as f:
         nodal = next(iter(f["Function/stress_difference_nodal"].values()))[:, 0]
     assert lo == pytest.approx(nodal.min(), rel=1e-3) and hi == pytest.approx(nodal.max(), rel=1e-3)
+
+
+def test_gauge_figure_draws_each_gauge_history(coarse_case3, tmp_path, monkeypatch):
+    """gauges.png: (a) v1, v2 at velocity_time, (b) σ1 − σ2 [MPa], (c) ε11, ε22, ε12 [1e-3] of every
+    gauge of gauges.h5, one colour per gauge named with its position."""
+    if RANK:
+        return
+    from fricfem.output.gauges import open_gauges
+    from fricfem.plot import gauges as plot_gauges, run as plot_run
+
+    figures = _kept(monkeypatch, plot_gauges)
+    paths = plot_run.plot_run(coarse_case3, out=tmp_path)
+    assert tmp_path / "gauges.png" in paths
+    fig = figures["gauges.png"]
+    g = open_gauges(coarse_case3)
+    assert len(g.time) > 100 and np.ptp(g.data["stress_difference"]) > 1e6  # the waves reached the gauges
+    ax_v, ax_s, ax_e = fig.axes[:3]
+    for k, name in enumerate(g.names):
+        h = g[name]
+        v_lines = ax_v.lines[2 * k: 2 * k + 2]
+        for c, ln in enumerate(v_lines):
+            np.testing.assert_array_equal(ln.get_xdata(), g.velocity_time * 1e6)
+            np.testing.assert_array_equal(ln.get_ydata(), h.velocity[:, c])
+        np.testing.assert_array_equal(ax_s.lines[k].get_xdata(), g.time * 1e6)
+        np.testing.assert_array_equal(ax_s.lines[k].get_ydata(), h.stress_difference / 1e6)
+        for c in range(3):
+            np.testing.assert_array_equal(ax_e.lines[3 * k + c].get_ydata(), h.strain[:, c] * 1e3)
+        assert ax_s.lines[k].get_color() == v_lines[0].get_color() == ax_e.lines[3 * k].get_color()
+    legend = [t.get_text() for t in ax_s.get_legend().get_texts()]
+    assert legend == ["above (20, 4) mm", "below (30, -6) mm"]

@@ -12,7 +12,9 @@ The figure kinds are the paper's (Coker, Lykotrafitis, Needleman & Rosakis,
 - ``spacetime.png``         Δu̇_slip over (x1, t) with the tracked fronts
   (:mod:`.spacetime`);
 - ``isochromatics_<t>us.png`` fringe pictures of σ1 − σ2 (Figs. 9, 11, 13, 16,
-  18; :mod:`.isochromatics`).
+  18; :mod:`.isochromatics`);
+- ``gauges.png``            velocity, σ1 − σ2 and strain at the gauges inside the
+  plates (``output.gauges``; :mod:`.gauges`).
 
 At most :data:`MAX_FIGURES` (24) isochromatic figures and frame-series panels
 are drawn, evenly spaced in time, and a warning names what was skipped: a run
@@ -39,6 +41,7 @@ from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module,
 from ..analysis.tip import tip_record
 from .interface import interface_distributions
 from .frames import frame_series
+from .gauges import gauge_histories
 from .common import mode_text, round_times, us
 from .isochromatics import F_SIGMA, THICKNESS, isochromatics
 from .spacetime import spacetime
@@ -111,7 +114,25 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
         else:
             log.warning("no sliding tip in summary.json or interface.h5; tip_speed.png skipped")
         written += _isochromatic_figures(rundir, out, times, info, itf, max_figures)
+        written += _gauge_figure(rundir, out, info)
     return written
+
+
+def _gauge_figure(rundir: Path, out: Path, info: RunInfo) -> list[Path]:
+    """``gauges.png`` when the run wrote gauges (``output.gauges``) with rows."""
+    from ..output.gauges import GAUGES_FILE, open_gauges
+
+    try:
+        gauges = open_gauges(rundir)
+    except OSError as err:
+        log.warning("%s: not readable (%s); gauges.png skipped", rundir / GAUGES_FILE, err.strerror or err)
+        return []
+    if gauges is None:
+        return []
+    if not len(gauges) or not len(gauges.time):
+        log.warning("%s: no gauge rows yet; gauges.png skipped", rundir / GAUGES_FILE)
+        return []
+    return [gauge_histories(gauges, out / "gauges.png", info=info)]
 
 
 def default_interface_times(itf: InterfaceFile) -> list:
