@@ -310,3 +310,30 @@ def test_gauge_figure_draws_each_gauge_history(coarse_case3, tmp_path, monkeypat
         assert ax_s.lines[k].get_color() == v_lines[0].get_color() == ax_e.lines[3 * k].get_color()
     legend = [t.get_text() for t in ax_s.get_legend().get_texts()]
     assert legend == ["above (20, 4) mm", "below (30, -6) mm"]
+
+
+def test_isochromatics_average_fringes_finer_than_a_pixel_instead_of_moire():
+    """Fringes 1.3 pixels apart (as near the struck corner): sampled once per pixel they alias
+    into broad full-contrast stripes (moiré); the supersampled picture is the grey they average to."""
+    if RANK:
+        return
+    pv = pytest.importorskip("pyvista")
+    from fricfem.plot import isochromatics as iso
+
+    width, height = 10e-3, 4e-3
+    plane = pv.Plane(center=(width / 2, 0, 0), direction=(0, 0, 1), i_size=width, j_size=height,
+                     i_resolution=400, j_resolution=160).triangulate()
+    period = 0.13e-3  # m: 1.3 pixels of a 100-pixel-wide picture of 10 mm
+    plane.cell_data["stress_difference"] = plane.cell_centers().points[:, 0] / period * iso.F_SIGMA / iso.THICKNESS
+    window = (0.0, width, -height / 2, height / 2)
+    contrast = {}
+    for k in (1, iso.SUPERSAMPLE):
+        image = iso.fringe_image(plane, window, width_px=100, supersample=k)
+        assert image.shape == (40, 100, 3)
+        grey = image[5:-5, 5:-5, 0].astype(float)
+        assert grey.mean() == pytest.approx(127.5, abs=12)  # sin² averages to 1/2 either way
+        contrast[k] = grey.std(axis=1).mean()
+    assert contrast[1] > 70  # the moiré: aliased stripes at nearly full contrast
+    assert contrast[iso.SUPERSAMPLE] < 0.4 * contrast[1]
+    np.testing.assert_array_equal(iso.downsample(np.arange(16, dtype=np.uint8).reshape(4, 4, 1), 2)[..., 0],
+                                  [[2, 4], [10, 12]])  # round(2.5) = 2, round(4.5) = 4: numpy's half-even
