@@ -337,3 +337,18 @@ def test_isochromatics_average_fringes_finer_than_a_pixel_instead_of_moire():
     assert contrast[iso.SUPERSAMPLE] < 0.4 * contrast[1]
     np.testing.assert_array_equal(iso.downsample(np.arange(16, dtype=np.uint8).reshape(4, 4, 1), 2)[..., 0],
                                   [[2, 4], [10, 12]])  # round(2.5) = 2, round(4.5) = 4: numpy's half-even
+
+
+def test_summary_says_when_the_run_ended_and_when_its_energy_is(coarse_case3):
+    """time.end = 40 µs on the coarse mesh (dt 265 ns): the run ends at 39.75 µs and its end-of-run
+    energy is the last step's, at that step's start 39.485 µs; summary.json says both."""
+    if RANK:
+        return
+    import json
+
+    s = json.loads((coarse_case3 / "summary.json").read_text())
+    end = s["end_times"]
+    assert end["t_end_s"] == 40e-6 and end["t_s"] == s["t_s"] == pytest.approx(s["steps"] * s["dt_s"], rel=1e-12)
+    assert end["t_s"] <= 40e-6 < end["t_s"] + s["dt_s"]
+    assert end["energy_time_s"] == s["energy"]["time_s"] == pytest.approx(s["t_s"] - s["dt_s"], rel=1e-12)
+    assert s["energy"]["at"] == "end" and f"{end['t_s'] * 1e6:.6g} us" in end["note"]

@@ -147,6 +147,16 @@ def split(record: dict) -> tuple[dict, dict]:
             mode["evidence"] = _scalars(full)
             evidence["mode_evidence"] = full
         summary["mode"] = mode
+    energy = summary.get("energy")
+    if isinstance(energy, dict) and isinstance(energy.get("time_s"), float) and isinstance(summary.get("t_s"), float):
+        # say which time the end-of-run budget is at: the last step's energies are at its start
+        lag = summary["t_s"] - energy["time_s"]
+        summary["end_times"] = {
+            "t_end_s": summary.get("t_end_s"), "t_s": summary["t_s"], "energy_time_s": energy["time_s"],
+            "note": (f"the run ends at t_s = {summary['t_s'] * 1e6:.6g} us, the last whole step not past "
+                     f"time.end; the energy budget is at {energy['time_s'] * 1e6:.6g} us"
+                     + (" (the start of the last step: the kinetic energy there needs v^(n+1/2), which that step "
+                        "computes)" if lag > 0 else ""))}
     if evidence:
         summary["evidence"] = EVIDENCE_FILE
     summary["units"] = UNITS
