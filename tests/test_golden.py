@@ -27,7 +27,10 @@ def _fingerprint(arrays: dict, results: dict) -> dict:
     """A fingerprint as golden.fingerprint makes it, of given datasets and summary results."""
     import hashlib
 
+    dt_crit = results.get("dt_crit_s")  # kept apart from the summary's digest, as golden.fingerprint does
+    results = {k: v for k, v in results.items() if k != "dt_crit_s"}
     return {"interface.h5": {k: golden._digest(v) for k, v in arrays.items()}, "fields.h5": {},
+            "dt_crit_s": dt_crit,
             "summary": hashlib.sha256(json.dumps(results, sort_keys=True).encode()).hexdigest(),
             "summary_numbers": {}, "energy_history": {}, "energy_summary": {},
             "scale_numbers": {"interface.h5": {k: golden.scale_numbers(v) for k, v in arrays.items()},
@@ -50,25 +53,29 @@ def _case():
 @pytest.mark.parametrize("rel, tolerance_passes", [(1e-12, True), (1e-6, False)])
 def test_tolerance_mode_passes_round_off_and_nothing_more(rel, tolerance_passes):
     """A dataset moved by ``rel`` of its scale (each value by up to rel·max|a|, as
-    dolfinx 0.10's round-off moves the shear traction by 1.5e-11 of 1.85e5), and
-    the summary's dt_crit_s by ``rel``: exact mode fails both times; tolerance
-    mode (golden.TOLERANCE = 1e-9) passes 1e-12 and fails 1e-6, naming the
-    dataset and the summary key."""
+    dolfinx 0.10's round-off moves the shear traction by 1.5e-11 of 1.85e5), the
+    summary's tip speed by ``rel`` and its dt_crit_s by rel/10: exact mode fails
+    both times; tolerance mode (golden.TOLERANCE = 1e-9) passes 1e-12 and fails
+    1e-6, naming the dataset and the summary key.  dt_crit_s is held to
+    golden.DT_CRIT_RTOL = 1e-12 in both modes: 1e-13 passes, 1e-7 fails."""
     arrays, results = _case()
     want = _fingerprint(arrays, results)
     assert golden.compare(want, want, "exact") == [] and golden.compare(want, want, "tolerance") == []
     rng = np.random.default_rng(3)
     ts = arrays["shear_traction"]
     moved = dict(arrays, shear_traction=ts + rel * np.nanmax(np.abs(ts)) * rng.uniform(-1, 1, ts.shape))
-    got = _fingerprint(moved, dict(results, dt_crit_s=results["dt_crit_s"] * (1 + rel)))
+    tip = dict(results["tip"], v_tip_max_m_s=results["tip"]["v_tip_max_m_s"] * (1 + rel))
+    got = _fingerprint(moved, dict(results, tip=tip, dt_crit_s=results["dt_crit_s"] * (1 + rel / 10)))
     exact = golden.compare(got, want, "exact")
     assert any("shear_traction differs" in b for b in exact) and any("summary" in b for b in exact), exact
+    assert any("dt_crit_s differs" in b for b in exact) != tolerance_passes, exact
     bad = golden.compare(got, want, "tolerance")
     if tolerance_passes:
         assert bad == [], bad
     else:
         assert any("shear_traction differs beyond 1e-09" in b for b in bad), bad
-        assert any("summary results differ beyond 1e-09 in ['dt_crit_s']" in b for b in bad), bad
+        assert any("summary results differ beyond 1e-09 in ['tip']" in b for b in bad), bad
+        assert any("dt_crit_s differs beyond 1e-12" in b for b in bad), bad
         assert not any("slip" in b or "open" in b for b in bad), bad  # the datasets left alone still pass
 
 
