@@ -2,9 +2,10 @@
 
 Run with ParaView's batch interpreter under a virtual X display (docs/paraview.md)::
 
-    xvfb-run -a pvbatch scripts/paraview_snapshot.py runs/case3/fields.xdmf --out runs/case3/plots
+    xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvbatch scripts/paraview_snapshot.py runs/case3/fields.xdmf --out runs/case3/plots
 
-(``pvbatch --force-offscreen-rendering`` aborts in Debian's ParaView 5.11.)  Writes
+(``pvbatch --force-offscreen-rendering`` aborts in Debian's ParaView 5.11; without ``-noreset``
+Xvfb may be resetting when pvbatch opens the display and pvbatch aborts.)  Writes
 ``paraview_stress_<t>us.png`` and ``paraview_velocity_<t>us.png`` at the snapshot
 nearest ``--time`` [µs] (default: the last), and prints one line per file with the
 snapshot's time and the range of the colored array.

@@ -265,9 +265,13 @@ def test_paraview_snapshot_script_colours_by_stress_and_velocity(fields_run, tmp
     from rankcheck import serial_env
 
     script = Path(__file__).resolve().parents[1] / "scripts" / "paraview_snapshot.py"
-    res = subprocess.run(["xvfb-run", "-a", "pvbatch", str(script), str(fields_run / "fields.xdmf"),
-                          "--out", str(tmp_path)], capture_output=True, text=True, env=serial_env(), timeout=600)
-    assert res.returncode == 0, res.stderr[-2000:]
+    # -noreset: Xvfb resets when its last client leaves (pvbatch connects more than once); on a
+    # busy machine (the other rank polling under mpirun) the second open fell in the reset and
+    # pvbatch aborted with "bad X server connection" (docs/paraview.md)
+    res = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24 -noreset", "pvbatch", str(script),
+                          str(fields_run / "fields.xdmf"), "--out", str(tmp_path)],
+                         capture_output=True, text=True, env=serial_env(), timeout=600)
+    assert res.returncode == 0, "\n".join(s for s in res.stderr.splitlines() if "ERR|" in s) + res.stderr[-2000:]
     pngs = sorted(p.name for p in tmp_path.glob("paraview_*.png"))
     from fricfem.output.rundir import FieldReader
 
