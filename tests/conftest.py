@@ -12,13 +12,15 @@
   destroyed collectively and ranks enter the next test together.
 
 Fixtures: ``comm`` (MPI.COMM_WORLD), ``tmp_dir_shared`` (one directory per
-test made on rank 0 and broadcast, so every rank writes to the same place).
+test made on rank 0 and broadcast, so every rank writes to the same place),
+``tiny_fs`` (a 3 MB tmpfs, for the full-disk faults).
 """
 
 from __future__ import annotations
 
 import gc
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -116,6 +118,25 @@ def tmp_dir_shared(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A fresh directory, the same path on every rank (made by rank 0)."""
     path = str(tmp_path_factory.mktemp("shared")) if _RANK == 0 else None
     return Path(_COMM.bcast(path, root=0))
+
+
+@pytest.fixture
+def tiny_fs(tmp_dir_shared: Path, comm: MPI.Comm):
+    """A 3 MB tmpfs (root only), unmounted afterwards."""
+    from rankcheck import on_rank0  # imports fricfem: only for the tests that ask for this fixture
+
+    path = tmp_dir_shared / "tiny"
+
+    def mount():
+        path.mkdir()
+        res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(path)], capture_output=True)
+        return res.returncode == 0
+
+    if not on_rank0(comm, mount):
+        pytest.skip("cannot mount a tmpfs here (not root?)")
+    yield path
+    comm.barrier()
+    on_rank0(comm, lambda: subprocess.run(["umount", "-l", str(path)], capture_output=True) and None)
 
 
 @pytest.fixture(autouse=True)

@@ -1,10 +1,25 @@
-"""One scene on every rank of ``comm`` and alone on rank 0: which recorded arrays differ."""
+"""Helpers for tests under MPI: work done on rank 0 and shared (``on_rank0``); one scene on
+every rank of ``comm`` and alone on rank 0: which recorded arrays differ."""
 
 import numpy as np
 from mpi4py import MPI
 
 from fricfem import runner
 from fricfem.output.rundir import open_run
+
+
+def on_rank0(comm, fn):
+    """``fn()`` on rank 0, its result (or its failure) on every rank."""
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn()
+        except BaseException as err:  # re-raised on every rank
+            error = err
+    result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise error
+    return result
 
 
 def world_against_self(scene, tmp_dir, comm, min_peak: float) -> list:

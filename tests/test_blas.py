@@ -32,6 +32,7 @@ from pathlib import Path
 import pytest
 
 import faults
+from rankcheck import on_rank0
 
 ROOT = Path(__file__).resolve().parents[1]
 LIB = Path("/usr/lib/x86_64-linux-gnu")
@@ -64,19 +65,6 @@ def _missing(label: str) -> list:
     return [str(p) for p in CONFIGS[label][1] if not p.exists()]
 
 
-def _on_rank0(comm, fn):
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn()
-        except BaseException as err:  # re-raised on every rank
-            error = err
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("label", list(CONFIGS))
 def test_golden_case_is_identical_under_this_blas(label, comm):
@@ -93,7 +81,7 @@ def test_golden_case_is_identical_under_this_blas(label, comm):
                              timeout=3600)
         return res.returncode, res.stdout, res.stderr[-3000:]
 
-    status, out, err = _on_rank0(comm, work)
+    status, out, err = on_rank0(comm, work)
     line = next((ln for ln in out.splitlines() if ln.startswith("blas: ")), None)
     assert line is not None, out + err
     blas = json.loads(line[len("blas: "):].split("; compare:")[0])
@@ -122,6 +110,6 @@ def test_the_blas_configurations_round_differently(comm):
             out[label] = res.stdout.split()
         return out
 
-    got = _on_rank0(comm, work)
+    got = on_rank0(comm, work)
     assert len({v[0] for v in got.values()}) > 1, got  # the BLASes differ
     assert len({v[1] for v in got.values()}) == 1, got  # fricfem's sum does not

@@ -15,7 +15,6 @@ import os
 import random
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -24,26 +23,13 @@ import pytest
 from mpi4py import MPI
 
 import faults
+from rankcheck import on_rank0
 from fricfem import cli, load_scene, open_run, runner
 from fricfem.output import directory
 from fricfem.output.directory import LOCK_FILE, MANIFEST_FILE, RunDirError
 
 RANK = MPI.COMM_WORLD.rank
 COARSE = ["--set", "mesh.preset='coarse'", "--set", "output.fields=[]", "--set", "time.end=4e-6"]
-
-
-def on_rank0(comm, fn):
-    """``fn()`` on rank 0, its result (or its failure) on every rank."""
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn()
-        except BaseException as err:  # re-raised on every rank
-            error = err
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
 
 
 def command(capsys, argv):
@@ -121,22 +107,6 @@ def test_a_row_with_a_finite_time_is_complete(comm, tmp_dir_shared):
 
 
 # -- a full file system ---------------------------------------------------------------------------
-
-@pytest.fixture
-def tiny_fs(tmp_dir_shared, comm):
-    """A 3 MB tmpfs (root only), unmounted afterwards."""
-    path = tmp_dir_shared / "tiny"
-
-    def mount():
-        path.mkdir()
-        res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(path)], capture_output=True)
-        return res.returncode == 0
-
-    if not on_rank0(comm, mount):
-        pytest.skip("cannot mount a tmpfs here (not root?)")
-    yield path
-    on_rank0(comm, lambda: subprocess.run(["umount", "-l", str(path)], capture_output=True) and None)
-
 
 def _mpirun(argv, timeout=900):
     """(status, stderr) of ``mpirun -n 2 fricfem ARGV`` (the timeout only bounds a hang)."""

@@ -25,7 +25,7 @@ import h5py
 import numba
 import numpy as np
 import pytest
-from rankcheck import count_calls, differing, h5_arrays
+from rankcheck import count_calls, differing, h5_arrays, on_rank0
 
 import faults
 import fricfem
@@ -36,37 +36,6 @@ from fricfem.model import diskcache
 from fricfem.output.directory import RunDirError
 
 QUICK = ["mesh.preset='coarse'", "time.end=12e-6", "output.fields=[]", "loading.v_imp=20.0"]
-
-
-def on_rank0(comm, fn):
-    """``fn()`` on rank 0, its result (or its failure) on every rank."""
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn()
-        except BaseException as err:  # re-raised on every rank
-            error = err
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
-
-
-@pytest.fixture
-def tiny_fs(tmp_dir_shared, comm):
-    """A 3 MB tmpfs (root only), unmounted afterwards."""
-    path = tmp_dir_shared / "tiny"
-
-    def mount():
-        path.mkdir()
-        res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(path)], capture_output=True)
-        return res.returncode == 0
-
-    if not on_rank0(comm, mount):
-        pytest.skip("cannot mount a tmpfs here (not root?)")
-    yield path
-    comm.barrier()
-    on_rank0(comm, lambda: subprocess.run(["umount", "-l", str(path)], capture_output=True) and None)
 
 
 def leave_free(folder: Path, nbytes: int) -> None:

@@ -12,7 +12,6 @@ fails the test instead of hanging the suite.
 from __future__ import annotations
 
 import json
-import os
 import shlex
 import signal
 import subprocess
@@ -21,7 +20,9 @@ import time
 from pathlib import Path
 
 import pytest
+from rankcheck import on_rank0
 
+import faults
 from fricfem import cli, load_scene, sweep
 from fricfem.output.directory import LOCK_FILE
 from fricfem.scene import SceneError, cost
@@ -29,31 +30,6 @@ from fricfem.scene import SceneError, cost
 QUICK = ["--preset", "coarse", "--set", "time.end=15e-6", "--quiet"]
 #: upper bound on any separate job (a hang fails the test; a normal one ends in seconds)
 JOB_TIMEOUT = 300
-
-
-def on_rank0(comm, fn):
-    """``fn()`` on rank 0, its result (or its failure) on every rank."""
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn()
-        except BaseException as err:  # re-raised on every rank
-            error = err
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
-
-
-def _env() -> dict:
-    """The environment without this job's MPI variables, for a separate mpirun or process."""
-    keep = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("OMPI_", "PMIX_", "OPAL_", "PMI_", "HYDRA_")) or k in keep}
-    if os.geteuid() == 0:
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    env["OMP_NUM_THREADS"] = "1"
-    return env
 
 
 def _fricfem(*argv) -> list:
@@ -124,7 +100,7 @@ def test_sweep_log_a_directory_under_two_ranks_ends_every_rank(tmp_path_factory,
         res = subprocess.run(["mpirun", "-n", "2", "--oversubscribe",
                               *_fricfem("sweep", "case1", "--sigma0", "6,30", "--v-imp", "2", *QUICK, "--out",
                                         str(out))],
-                             capture_output=True, text=True, env=_env(), timeout=JOB_TIMEOUT)
+                             capture_output=True, text=True, env=faults.clean_env(), timeout=JOB_TIMEOUT)
         return res.returncode, res.stderr, _computed(out)
 
     rc, err, computed = on_rank0(comm, run)
@@ -202,7 +178,7 @@ def test_a_second_sweep_into_a_running_sweeps_directory_stops_at_once(tmp_dir_sh
     def start():
         nonlocal proc
         proc = subprocess.Popen(_fricfem("sweep", *argv), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True, env=_env())
+                                text=True, env=faults.clean_env())
         deadline = time.monotonic() + JOB_TIMEOUT  # a bound on the wait for the event, not a timing
         while not _lock_written(out / LOCK_FILE):
             assert proc.poll() is None, proc.communicate()
@@ -358,7 +334,7 @@ def test_scenes_into_a_closed_pipe_is_quiet(comm):
     def run():
         res = subprocess.run(f"{sys.executable} -m fricfem.cli scenes --keys | head -c 10 >/dev/null; "
                              "echo ${PIPESTATUS[0]}", shell=True, executable="/bin/bash", capture_output=True,
-                             text=True, env=_env(), timeout=JOB_TIMEOUT)
+                             text=True, env=faults.clean_env(), timeout=JOB_TIMEOUT)
         return res.stdout.strip(), res.stderr
 
     rc, err = on_rank0(comm, run)
@@ -373,7 +349,7 @@ def test_a_sweep_printing_into_a_closed_pipe_under_two_ranks_ends_every_rank(tmp
         cmd = ["mpirun", "-n", "2", "--oversubscribe",
                *_fricfem("sweep", "case1", "--sigma0", "6,30", "--v-imp", "2", *QUICK, "--out", str(out))]
         res = subprocess.run(" ".join(map(shlex.quote, cmd)) + " | head -c 1 >/dev/null; echo ${PIPESTATUS[0]}",
-                             shell=True, executable="/bin/bash", capture_output=True, text=True, env=_env(),
+                             shell=True, executable="/bin/bash", capture_output=True, text=True, env=faults.clean_env(),
                              timeout=JOB_TIMEOUT)
         return res.stdout.strip(), res.stderr, json.loads((out / "modemap.json").read_text())["computed"]
 
