@@ -11,6 +11,7 @@ from pathlib import Path
 import numba
 import numpy as np
 import pytest
+from userlaws import coulomb_advance, coulomb_rigid
 
 import fricfem
 from fricfem import friction
@@ -143,26 +144,6 @@ def test_every_call_docs_api_names_exists():
 
 
 @numba.njit
-def _coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    trial = Ts + Cs * vs * dt
-    strength = p[0] * Tn1
-    if abs(trial) <= strength:
-        return trial, 0.0, 0.0, 0.0, 1
-    dslip = (abs(trial) - strength) / Cs
-    Ts1 = strength if trial > 0 else -strength
-    return Ts1, dslip / dt, dslip, friction.frictional_work(Ts, Ts1, dslip), 1
-
-
-@numba.njit
-def _coulomb_rigid(p, s, T_stick, Z, Tn0, Tn1, dt):
-    strength = p[0] * Tn1
-    if abs(T_stick) <= strength:
-        return T_stick, 0.0, 0.0, 0.0, 1
-    v = (abs(T_stick) - strength) / Z  # the pair's impedance takes the excess
-    return (strength if T_stick > 0 else -strength), v, v * dt, strength * v * dt, 1
-
-
-@numba.njit
 def _rigid_nan(p, s, T_stick, Z, Tn0, Tn1, dt):
     return np.nan, 0.0, 0.0, 0.0, 1
 
@@ -172,11 +153,11 @@ def test_registered_law_with_a_rigid_verb_runs_on_split_nodes(comm, tmp_dir_shar
     (its split-node kernel compiled for it), and the law holds at every sliding pair;
     one without it is refused before anything is built; a broken verb is refused at registration."""
     with pytest.raises(ValueError, match=r"rigid returned .*every output finite"):
-        fricfem.register_law(_law(name="coulomb_r", advance=_coulomb_advance, rigid=_rigid_nan))
-    fricfem.register_law(_law(name="no_rigid", advance=_coulomb_advance))
+        fricfem.register_law(_law(name="coulomb_r", advance=coulomb_advance, rigid=_rigid_nan))
+    fricfem.register_law(_law(name="no_rigid", advance=coulomb_advance))
     with pytest.raises(fricfem.scene.SceneError, match=r"law 'no_rigid' has no rigid \(split-node\) form"):
         fricfem.load_scene("case1", ["friction.law='no_rigid'", "interface.kind='rigid'"])
-    fricfem.register_law(_law(name="coulomb_r", advance=_coulomb_advance, rigid=_coulomb_rigid))
+    fricfem.register_law(_law(name="coulomb_r", advance=coulomb_advance, rigid=coulomb_rigid))
     scene = fricfem.load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=20.0", "time.end=25e-6",
                                          "output.fields=[]", "interface.kind='rigid'",
                                          "friction.law='coulomb_r'", "friction.params.mu=0.3"])

@@ -26,6 +26,7 @@ import numba
 import numpy as np
 import pytest
 from rankcheck import count_calls, differing, h5_arrays, on_rank0
+from userlaws import coulomb_advance
 
 import faults
 import fricfem
@@ -318,40 +319,29 @@ def clean_laws():
     friction.LAWS.update(before)
 
 
-@numba.njit
-def _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    trial = Ts + Cs * vs * dt
-    strength = p[0] * Tn1
-    if abs(trial) <= strength:
-        return trial, 0.0, 0.0, 0.0, 1
-    dslip = (abs(trial) - strength) / Cs
-    Ts1 = strength if trial > 0 else -strength
-    return Ts1, dslip / dt, dslip, friction.frictional_work(Ts, Ts1, dslip), 1
-
-
 # each below passes the registration's calls (T_n = 1 MPa exactly) and breaks the contract in a run
 
 @numba.njit
 def _backwards(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    Ts1, v, dslip, work, n = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    Ts1, v, dslip, work, n = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     return (Ts1, v, dslip, work, n) if Tn1 == 1e6 else (Ts1, -v, dslip, -work, n)
 
 
 @numba.njit
 def _no_work(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    Ts1, v, dslip, work, n = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    Ts1, v, dslip, work, n = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     return Ts1, v, dslip, 0.0, n
 
 
 @numba.njit
 def _negative_nsub(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    Ts1, v, dslip, work, n = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    Ts1, v, dslip, work, n = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     return Ts1, v, dslip, work, (n if Tn1 == 1e6 else -5)
 
 
 @numba.njit
 def _wears(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    out = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    out = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     if Tn1 != 1e6 and out[2] > 0.0:
         p[0] = max(0.02, 0.9 * p[0])  # μ drifts down as it slides
     return out
@@ -359,14 +349,14 @@ def _wears(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 @numba.njit
 def _wears_always(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    out = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    out = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     p[0] = 0.9 * p[0]
     return out
 
 
 @numba.njit
 def _always_nsub(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    Ts1, v, dslip, work, n = _coulomb(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
+    Ts1, v, dslip, work, n = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     return Ts1, v, dslip, work, -5
 
 
@@ -391,7 +381,7 @@ def _divides_in_a_run(p, Tn0, Ts0):
     return np.array([1.0 / float(Ts0 - 3e6)])  # the registration's Ts0 = 0 passes; a run's tau0 = 3 MPa does not
 
 
-def _law(name, advance=_coulomb, initial_state=_zero):
+def _law(name, advance=coulomb_advance, initial_state=_zero):
     return Law(name=name, doc="a test law", params=(Param("mu", 0.5, "", 0.0, 2.0, "friction coefficient"),),
                state=("theta",), advance=advance, steady_mu=_mu, initial_state=initial_state)
 
