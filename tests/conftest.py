@@ -13,7 +13,8 @@
 
 Fixtures: ``comm`` (MPI.COMM_WORLD), ``tmp_dir_shared`` (one directory per
 test made on rank 0 and broadcast, so every rank writes to the same place),
-``tiny_fs`` (a 3 MB tmpfs, for the full-disk faults).
+``tiny_fs`` (a 3 MB tmpfs, for the full-disk faults), ``clean_laws`` (the law
+registry restored after the test).
 """
 
 from __future__ import annotations
@@ -137,6 +138,17 @@ def tiny_fs(tmp_dir_shared: Path, comm: MPI.Comm):
     yield path
     comm.barrier()
     on_rank0(comm, lambda: subprocess.run(["umount", "-l", str(path)], capture_output=True) and None)
+
+
+@pytest.fixture
+def clean_laws():
+    """Leave fricfem's law registry as it was (tests and demos register laws)."""
+    from fricfem import friction
+
+    before = dict(friction.LAWS)
+    yield
+    friction.LAWS.clear()
+    friction.LAWS.update(before)
 
 
 @pytest.fixture(autouse=True)

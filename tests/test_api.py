@@ -20,15 +20,6 @@ from fricfem.friction import Law, Param
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture
-def clean_laws():
-    """Leave the law registry as it was (the demo registers one)."""
-    before = dict(friction.LAWS)
-    yield
-    friction.LAWS.clear()
-    friction.LAWS.update(before)
-
-
 def test_api_tour_demo(comm, tmp_dir_shared, clean_laws, monkeypatch):
     out = tmp_dir_shared / "tour"
     monkeypatch.setattr(sys, "argv", ["api_tour.py", "--mesh", "coarse", "--out", str(out)])

@@ -311,14 +311,6 @@ def test_a_forged_cache_entry_is_a_miss(comm, tmp_dir_shared, monkeypatch, count
 
 # -- user laws -----------------------------------------------------------------------------------------
 
-@pytest.fixture
-def clean_laws():
-    before = dict(friction.LAWS)
-    yield
-    friction.LAWS.clear()
-    friction.LAWS.update(before)
-
-
 # each below passes the registration's calls (T_n = 1 MPa exactly) and breaks the contract in a run
 
 @numba.njit
