@@ -179,10 +179,17 @@ def kill_once(args, out: Path, ref: Path, at: float, plot: bool = True) -> dict:
     shutil.rmtree(out, ignore_errors=True)
     p = start(args, out)
     time.sleep(at)
+    return _kill_and_check(p, out, ref, plot, kill_at_s=round(at, 3))
+
+
+def _kill_and_check(p, out: Path, ref: Path, plot: bool, **when) -> dict:
+    """Kill the job ``p`` (mpirun and its ranks), then what survived in ``out`` against
+    the complete run ``ref`` (:func:`check`), and ``fricfem plot`` on it if ``plot``;
+    ``when``: where the kill landed, first in the record."""
     ended = p.poll() is not None
     killed = kill_tree(p.pid)
     p.wait()
-    res = {"kill_at_s": round(at, 3), "ended_before_kill": ended, "processes_killed": killed, **check(out, ref)}
+    res = {**when, "ended_before_kill": ended, "processes_killed": killed, **check(out, ref)}
     if plot and (out / "interface.h5").exists():
         ok, why = plot_ok(out)
         res["plot"] = ok
@@ -222,17 +229,7 @@ def kill_at_rows(args, out: Path, ref: Path, rows: int, plot: bool = True, poll_
             seen = n
             break
         time.sleep(poll_s)
-    ended = p.poll() is not None
-    killed = kill_tree(p.pid)
-    p.wait()
-    res = {"kill_at_rows": rows, "rows_seen": seen, "ended_before_kill": ended, "processes_killed": killed,
-           **check(out, ref)}
-    if plot and (out / "interface.h5").exists():
-        ok, why = plot_ok(out)
-        res["plot"] = ok
-        if not ok:
-            res["problems"].append(f"fricfem plot: {why}")
-    return res
+    return _kill_and_check(p, out, ref, plot, kill_at_rows=rows, rows_seen=seen)
 
 
 def _plot_cell(r: dict) -> str:
