@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 from fricfem.model import bodies, grid
 from fricfem.model.build import build_model
-from fricfem.output.gauges import LineGauges
+from fricfem.output.line_gauges import LineGauges
 from fricfem.scene import SceneError, load, validate
 from fricfem.step import State, evolve
 

@@ -20,7 +20,9 @@ from mpi4py import MPI
 
 from fricfem import load_scene, open_run, runner
 from fricfem.model.build import build_model
-from fricfem.output.gauges import GAUGES_FILE, LineGauges, evaluate, locate, open_gauges
+from fricfem.output.gauges import GAUGES_FILE, evaluate, open_gauges
+from fricfem.output.line_gauges import LineGauges
+from fricfem.output.points import locate
 from fricfem.scene import SceneError
 from rankcheck import serial_env
 

@@ -36,7 +36,7 @@ from mpi4py import MPI
 from fricfem.analysis.fronts import fronts
 from fricfem.analysis.tip import lsq_slope, tip_history, tip_speed
 from fricfem.model.build import build_model
-from fricfem.output.gauges import LineGauges
+from fricfem.output.line_gauges import LineGauges
 from fricfem.runner import run_scene
 
 #: Line gauges {name: (x1, x2_min, x2_max, h)} [m]: the mean x1 velocity over the

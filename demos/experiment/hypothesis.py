@@ -42,7 +42,7 @@ from fricfem import friction, load_scene  # noqa: E402
 from fricfem.friction import povirk_needleman as pn  # noqa: E402
 from fricfem.model.build import build_model  # noqa: E402
 from fricfem.model.bodies import launch  # noqa: E402
-from fricfem.output.gauges import LineGauges  # noqa: E402
+from fricfem.output.line_gauges import LineGauges  # noqa: E402
 from fricfem.step import State, evolve  # noqa: E402
 
 ap = common.options("runs/experiment_hypothesis")

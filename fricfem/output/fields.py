@@ -49,7 +49,7 @@ from dolfinx import fem
 from dolfinx.io import XDMFFile
 
 from ..kernels import stress
-from .gauges import shape_gradients
+from .points import shape_gradients
 from .quantities import DERIVED_FIELDS, FIELD_MEANING, FIELDS
 
 #: the folder beside ``fields.xdmf`` that holds its HDF5 files

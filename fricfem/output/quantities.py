@@ -37,6 +37,7 @@ FORMAT = 3  # interface.h5 / summary.json layout version
 INTERFACE_FILE = "interface.h5"
 SUMMARY_FILE = "summary.json"
 FIELDS_FILE = "fields.xdmf"
+GAUGES_FILE = "gauges.h5"
 
 
 class Quantity(NamedTuple):
@@ -116,6 +117,16 @@ FIELD_MEANING = {
     "stress_difference_nodal": "stress_difference (prestress included) at the nodes: the cells' values "
                                "averaged with the cells' areas as weights (lumped L2 projection to P1); "
                                "for viewing, the cell values are the computed ones",
+}
+
+#: ``gauges.h5``'s per-gauge histories (:mod:`.gauges`), in file order: dataset -> (unit, component
+#: names, meaning).
+GAUGE_QUANTITIES = {
+    "displacement": ("m", ("u1", "u2"), "displacement u at time"),
+    "velocity": ("m/s", ("v1", "v2"), "velocity v at velocity_time = time - dt/2 (central differences)"),
+    "strain": ("", ("e11", "e22", "e12"), "infinitesimal strain of the triangle holding the gauge, at time"),
+    "stress": ("Pa", ("s11", "s22", "s12"), "in-plane stress of that triangle, prestress included, at time"),
+    "stress_difference": ("Pa", (), "sigma1 - sigma2 (prestress included), at time"),
 }
 
 #: Units of law state variables (``state/<name>`` of interface.h5), by name, for
