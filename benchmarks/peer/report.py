@@ -225,7 +225,7 @@ def figure(name: str, prob: dict, path: Path) -> None:
 def write(doc: dict, out: Path = RESULTS) -> None:
     L = ["# fricfem against SEM2DPACK (code-to-code)", "",
          "`.venv/bin/python benchmarks/peer/score.py` (method and definitions: its header; the problems: "
-         "benchmarks/peer/README.md, fricfem/scenes/tpv205_2d.toml, rsf_aging_2d.toml).  Reference: the peer's "
+         "benchmarks/peer/README.md, fricfem/scenes/tpv205_2d.toml, rsf_aging_2d.toml, rsf_slip_2d.toml).  Reference: the peer's "
          f"finest run `{doc['reference']}`; rupture time = first slip rate > {doc['threshold_m_s']:g} m/s "
          f"(stations with t_r > {doc['t_r_min_s'] * 1e6:g} µs); slip and peak rate over the stations that slip.  "
          f"{doc['machine']}, {doc['date']}.", ""]
