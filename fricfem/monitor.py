@@ -329,6 +329,7 @@ class Monitor:
         self.local = np.empty(6)  # this rank's part of the step's one reduction
         self.seen = np.empty(5)  # this rank's points after a step (fricfem.kernels.watch.look)
         self.background = None  # the runner's writer of the periodic summary (fricfem.runner.Background)
+        self.wall_checkpoint = None  # rank 0: callable(now) -> whether a checkpoint is due by wall time
         self.spikes = Spikes(scene.watchdog["max_slip_rate"], model.comm)  # reported, never a stop
         self.t_loop0 = time.perf_counter()  # when the loop started (reset by the caller)
         self.first_step_s = None  # wall time of the first step, JIT compilation included [s]
@@ -354,6 +355,8 @@ class Monitor:
             local[4] = max(local[4], self.law_watch.code(e is not None))
         local[2] = 1.0 if self.stop_requested else 0.0
         local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
+        if self.wall_checkpoint is not None and self.comm.rank == 0 and self.wall_checkpoint(t1):
+            local[3] = 2.0  # a checkpoint due by wall time: a flush, then the checkpoint (fricfem.runner._checkpoint)
         glob = self.glob
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         self.spikes.observe(glob[5], st.t_interface, (seen[2], seen[4]))

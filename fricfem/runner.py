@@ -34,7 +34,7 @@ from .model.build import build_model
 from .monitor import LOOP_PARTS, Monitor, Progress
 from .output.quantities import ENERGY, FIELDS_FILE, INTERFACE_FILE
 from .output.gauges import GAUGES_FILE, GaugeWriter
-from .output import directory
+from .output import checkpoint, directory
 from .output.directory import RunDirError
 from .output.record import record_texts, replace_texts, whole, write_record
 from .output.recorder import Recorder, planned_rows
@@ -232,7 +232,7 @@ def _steps(model, state, t_end: float, energy_every: int, monitor: Monitor):
         yield state, (e if cadence else None)
 
 
-def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_step) -> str | None:
+def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_step, checkpoints=None) -> str | None:
     """Step to the end time or until the monitor says stop; returns why it stopped (None: the end).
     The first step (with the kernels' compilation or cache load) is timed alone
     (``monitor.first_step_s``); ``monitor.cost`` times the parts of the others."""
@@ -258,6 +258,8 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
             if on_step is not None:
                 on_step(st)
             progress.update(st.t, monitor.tip_text())
+            if checkpoints is not None and checkpoints.due(st.n, stop, monitor.glob[3] >= 2):
+                _checkpoint(checkpoints, monitor, st)
             if stop:
                 break
     finally:
@@ -267,6 +269,17 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
 
 
 def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
+def _checkpoint(checkpoints, monitor, st) -> None:
+    """Flush every output, then write the checkpoint of ``st`` and the watchers (collective;
+    :mod:`fricfem.output.checkpoint`)."""
+    t0 = time.perf_counter()
+    monitor.flush(st)
+    monitor.rows_pending = 0
+    monitor.last_flush = time.perf_counter()
+    checkpoints.take(st, checkpoint.watchers(monitor, monitor.rec, monitor.writer, monitor.gauges))
+    monitor.seconds += time.perf_counter() - t0
+
+
     """summary.json's ``loop_cost``: the time loop's wall time per step [µs] by part
     (:data:`fricfem.monitor.LOOP_PARTS`), over the steps after the first, on rank 0.
 
@@ -331,7 +344,7 @@ def _guarded(comm, out: Path, fn):
 
 
 def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = False, quiet: bool = False,
-              on_step=None, build=build_model) -> dict:
+              on_step=None, build=build_model, resume: bool = False) -> dict:
     """Run ``scene`` writing the run directory ``out``; returns the run's whole record
     (summary and evidence, as :func:`fricfem.output.rundir.read_summary` reads them; all ranks).
 
@@ -342,22 +355,43 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     The directory is locked while the run writes it; an exception on one rank of
     several ends the job (:func:`_guarded`).
     """
+
+    ``resume``: continue the killed or stopped run in ``out`` from its checkpoint
+    (:mod:`fricfem.output.checkpoint`; ``scene`` must be the one it was written for),
+    with the same bits as a run never stopped.
     t_start = time.perf_counter()
     out = Path(out)
     check_laws(scene, comm)
-    lock = prepare_outdir(out, comm, overwrite)
+    checkpoint.check_scene(scene)
+    lock = prepare_outdir(out, comm, overwrite) if not resume else _reopen(out, comm)
     try:
-        return _guarded(comm, out, lambda: _run(scene, out, comm, quiet, on_step, build, t_start))
+        header = checkpoint.check_resume(out, comm, scene) if resume else None
+        return _guarded(comm, out, lambda: _run(scene, out, comm, quiet, on_step, build, t_start, header))
     finally:
         if lock is not None:
             lock.release()
 
 
-def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: float) -> dict:
+def _reopen(out: Path, comm):
+    """Lock the run directory of a run to resume, keeping its files (collective; the lock on rank 0)."""
+    lock = problem = None
+    if comm.rank == 0:
+        try:
+            lock = directory.reopen(out)
+        except RunDirError as err:
+            problem = str(err)
+    problem = comm.bcast(problem, root=0)
+    if problem:
+        raise RunDirError(problem)
+    return lock
+
+
+def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: float, header=None) -> dict:
     """:func:`run_scene` once its directory is ready."""
     pm, model = build(scene, comm)
     summary = _summary(scene, pm, model, comm)
     _check_step(scene, model, comm)
+    aside = checkpoint.set_aside(out, comm) if header is not None else None  # the files to continue
     if not scene.watchdog["max_slip_rate"]:
         scene = scene._replace(watchdog={**scene.watchdog, "max_slip_rate": scene.material.c_l})
     every = max(1, int(round(scene.output["interface_every"] / model.dt)))
@@ -402,10 +436,17 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     monitor.background = background
     if scene.output["gauges"]:
         monitor.gauges = GaugeWriter(out / GAUGES_FILE, scene, model)
-        monitor.gauges.observe(state)  # the state at t = 0
+        if header is None:
+            monitor.gauges.observe(state)  # the state at t = 0
+    checkpoints = checkpoint.Checkpoints(out, scene, model) if checkpoint.enabled(scene) else None
+    if checkpoints is not None:
+        monitor.wall_checkpoint = checkpoints.wall_due if checkpoints.wall > 0 else None
+    if header is not None:  # the state, the watchers and the files as the checkpoint has them
+        checkpoint.resume(out, header, aside, model, state, monitor)
+        summary.update(steps=state.n, t_s=state.t, initiation=monitor.initiation)
     progress = Progress(scene.t_end, enabled=(comm.rank == 0 and not quiet))
     monitor.t_loop0 = time.perf_counter()
-    stop = _loop(model, state, scene, monitor, progress, on_step)
+    stop = _loop(model, state, scene, monitor, progress, on_step, checkpoints)
     loop_wall = time.perf_counter() - monitor.t_loop0
     t_loop = loop_wall - monitor.seconds
     progress.update(state.t, monitor.tip_text(), force=True)

@@ -35,14 +35,14 @@ from ..scene.schema import SceneError
 LOCK_FILE = ".fricfem.lock"
 MANIFEST_FILE = ".fricfem-manifest.json"
 #: what a run writes at the top of its directory, and the folder of its field files
-RUN_FILES = ("interface.h5", "fields.xdmf", "summary.json", "evidence.json", "gauges.h5")
+RUN_FILES = ("interface.h5", "fields.xdmf", "summary.json", "evidence.json", "gauges.h5", "checkpoint.fricfem")
 RUN_DIRS = {"fields": re.compile(r"(mesh|t\d{4,})\.h5|\.mesh\.(h5|xdmf)|\..*\.part(\.h5|\.xdmf)?"),
             "plots": re.compile(r"(interface_.*|tip_speed|station_.*|spacetime|isochromatic.*)\.png")}
 #: files of runs made before the manifest existed (recognised by their summary.json)
 LEGACY_FILES = ("interface.h5", "fields.xdmf", "fields.h5", "summary.json")
 #: temporary files (written, then renamed over their final name)
-_TEMPORARY = re.compile(r"\.(interface\.h5|summary\.json|evidence\.json|fields\.xdmf|gauges\.h5|fricfem-manifest\.json)"
-                        r"\..*(part|compact)")
+_TEMPORARY = re.compile(r"\.(interface\.h5|summary\.json|evidence\.json|fields\.xdmf|gauges\.h5|fricfem-manifest\.json"
+                        r"|checkpoint\.fricfem)\..*(part|compact|resume)")
 STALE_EMPTY_LOCK_S = 5.0
 
 
@@ -224,4 +224,22 @@ def prepare(out: Path, overwrite: bool) -> Lock:
     except BaseException:
         lock.release()
         raise
+    return lock
+
+
+def reopen(out: Path) -> Lock:
+    """Lock the run directory ``out`` of a run to be resumed, keeping what is in it (rank 0;
+    ``fricfem run --resume``): it must be a directory fricfem wrote (its manifest), not a
+    symbolic link; a lock left by the killed run is stale and taken over, one held by a
+    live run is refused."""
+    out = Path(out)
+    if out.is_symlink():
+        raise RunDirError(f"--resume {str(out)!r}: is a symbolic link (to {os.readlink(out)!r}); give the "
+                          "directory itself")
+    if not out.is_dir():
+        raise RunDirError(f"--resume {str(out)!r}: no such run directory")
+    if not (out / MANIFEST_FILE).is_file():
+        raise RunDirError(f"--resume {str(out)!r}: not a fricfem run directory (no {MANIFEST_FILE})")
+    lock = Lock(out / LOCK_FILE)
+    lock.acquire(out)
     return lock

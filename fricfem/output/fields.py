@@ -325,5 +325,18 @@ class FieldWriter:
                 + '    <Grid Name="fields" GridType="Collection" CollectionType="Temporal">\n'
                 + "".join(self.grids) + "    </Grid>\n  </Domain>\n</Xdmf>\n")
 
+    def resume(self, grids: list) -> None:
+        """Continue a run from its checkpoint: the snapshots it had written (``grids``,
+        the XML of each, as :attr:`grids` held them) are the series again; the files of
+        later snapshots are removed and ``fields.xdmf`` lists those (rank 0 writes)."""
+        if self.comm.rank != 0:
+            return
+        self.grids = list(grids)
+        for entry in os.listdir(self.dir):
+            k = entry[1:-3]
+            if entry.startswith("t") and entry.endswith(".h5") and k.isdigit() and int(k) > len(self.grids):
+                (self.dir / entry).unlink()
+        _replace_text(self.path, self._document())
+
     def close(self) -> None:
         """Nothing stays open between snapshots; kept for the writer's contract."""

@@ -178,6 +178,32 @@ class GaugeWriter:
             self.written = n1
         f.flush()
 
+    def resume(self, old: Path, rows: int) -> None:
+        """Continue a run from its checkpoint (collective): the first ``rows`` rows of the
+        killed or stopped run's file ``old`` into this freshly laid-out file, values
+        before times (as :meth:`fricfem.output.recorder.Recorder.resume`)."""
+        error = None
+        if self.comm.rank == 0:
+            try:
+                with _h5open(old) as f:
+                    have = valid_rows(f["time"])
+                    if have < rows:
+                        raise OSError(None, f"holds {have} rows, the checkpoint counts {rows}", str(old))
+                    if rows:
+                        for q in (*GAUGE_QUANTITIES, "velocity_time"):
+                            self.h5[q][:rows] = f[q][:rows]
+                        self.h5.flush()
+                        self.h5["time"][:rows] = f["time"][:rows]
+                        self.h5.flush()
+                self.written = rows
+            except (OSError, KeyError) as err:
+                error = f"{old}: cannot resume from it: {err.strerror if isinstance(err, OSError) else err}"
+        error = self.comm.bcast(error, root=0)
+        if error is not None:
+            from .directory import RunDirError
+
+            raise RunDirError(error)
+
     def close(self) -> None:
         """Flush and close (rank 0); a file with fewer rows than planned (the run ended
         early) is replaced by a copy of its valid rows."""

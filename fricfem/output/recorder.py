@@ -310,6 +310,61 @@ class Recorder:
         self.written = {"snapshots": n1, "energy": k1}
 
     def history(self):
+    def resume(self, old: Path, rows: dict) -> None:
+        """Continue a run from its checkpoint (collective): the first ``rows`` of the
+        killed or stopped run's file ``old`` (``snapshots``, ``energy``, ``stations``
+        {name: rows}) copied into this freshly laid-out file, every value before any
+        time (a kill meanwhile leaves ``old`` whole and this file's valid rows a
+        prefix), and into rank 0's history; the rows after them stay NaN until the
+        run writes them again.  A :class:`~.directory.RunDirError` on every rank when
+        ``old`` holds fewer rows than the checkpoint counts."""
+        from .rundir import _h5open, valid_rows
+
+        self.station_n = {name: int(rows["stations"].get(name, 0)) for name in self.stations}
+        error = None
+        if self.comm.rank == 0:
+            k, ke = int(rows["snapshots"]), int(rows["energy"])
+            try:
+                with _h5open(old) as f:
+                    have = {"": valid_rows(f["time"]), "energy": valid_rows(f["energy/time"])}
+                    have.update({name: valid_rows(f[f"stations/{name}/time"]) for name in self.stations})
+                    need = {"": k, "energy": ke, **self.station_n}
+                    short = [g or "snapshots" for g, n in need.items() if have[g] < n]
+                    if short:
+                        raise OSError(None, f"holds fewer rows than the checkpoint counts ({', '.join(short)}: "
+                                      f"{[have[g] for g in need if have[g] < need[g]]} < "
+                                      f"{[need[g] for g in need if have[g] < need[g]]})", str(old))
+                    full = np.stack([np.asarray(f[q][:k], dtype=np.float64) for q in self.names]) if k else None
+                    t = f["time"][:k]
+                    energy = {e: f[f"energy/{e}"][:ke] for e in ENERGY}
+                    stations = {name: {c: f[f"stations/{name}/{c}"][:n] for c in ["time", *(q.name for q in
+                                                                                          QUANTITIES)]}
+                                for name, n in self.station_n.items()}
+                times = [("time", t)] + [("energy/time", energy["time"])]
+                for q, a in zip(self.names, full if full is not None else []):
+                    self.h5.write(q, 0, a)
+                for e in ENERGY:
+                    if e != "time":
+                        self.h5.write(f"energy/{e}", 0, energy[e])
+                for name, cols in stations.items():
+                    for c, a in cols.items():
+                        if c != "time":
+                            self.h5.write(f"stations/{name}/{c}", 0, a)
+                    times.append((f"stations/{name}/time", cols["time"]))
+                for name, a in times:
+                    self.h5.write(name, 0, a)
+                self.blocks = [(0, full)] if k else []
+                self.snap_t = [float(x) for x in t]
+                self.energy_rows = np.column_stack([energy[e] for e in ENERGY]).tolist() if ke else []
+                self.written = {"snapshots": k, "energy": ke}
+            except (OSError, KeyError) as err:
+                error = f"{old}: cannot resume from it: {err.strerror if isinstance(err, OSError) else err}"
+        error = self.comm.bcast(error, root=0)
+        if error is not None:
+            from .directory import RunDirError
+
+            raise RunDirError(error)
+
         """(time, slip_rate[n_t, n_p]) recorded so far (rank 0; None elsewhere)."""
         if self.comm.rank != 0:
             return None

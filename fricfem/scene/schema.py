@@ -135,6 +135,11 @@ SCHEMA = {
         "flush_every": Key(NUM, 2.0, "s", 0.0, 1e6, "wall-clock seconds between flushes (the rows also flush "
                            "every 10 interface rows) and between rewrites of summary.json while the run goes",
                            open_low=True),
+        "checkpoint_every": Key(NUM, 0.0, "s", 0.0, 1.0, "simulated time between checkpoints of the whole run "
+                                "state (checkpoint.fricfem, replaced atomically; fricfem run --resume DIR "
+                                "continues from the last one, bit-identical); 0: none by simulated time"),
+        "checkpoint_wall": Key(NUM, 0.0, "s", 0.0, 1e7, "wall-clock seconds between checkpoints (decided on "
+                               "rank 0, e.g. 1800 under a batch system's time limit); 0: none by wall time"),
         "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
         # gauges, frames and the photoelastic constants: fricfem/scene/output_keys.py checks them
         "gauges": Key(dict, {}, "m", doc="gauge name -> [x1, x2] inside a plate (x2 != 0: not on the interface): "
