@@ -257,9 +257,9 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
                 monitor.energy_steps = 0
             if on_step is not None:
                 on_step(st)
-            progress.update(st.t, monitor.tip_text())
             if checkpoints is not None and checkpoints.due(st.n, stop, monitor.glob[3] >= 2):
                 _checkpoint(checkpoints, monitor, st)
+            progress.update(st.t, monitor.tip_text())
             if stop:
                 break
     finally:
@@ -268,7 +268,6 @@ def _loop(model, state, scene: Scene, monitor: Monitor, progress: Progress, on_s
     return stop
 
 
-def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
 def _checkpoint(checkpoints, monitor, st) -> None:
     """Flush every output, then write the checkpoint of ``st`` and the watchers (collective;
     :mod:`fricfem.output.checkpoint`)."""
@@ -280,6 +279,7 @@ def _checkpoint(checkpoints, monitor, st) -> None:
     monitor.seconds += time.perf_counter() - t0
 
 
+def loop_cost(monitor, steps: int, loop_wall: float) -> dict:
     """summary.json's ``loop_cost``: the time loop's wall time per step [µs] by part
     (:data:`fricfem.monitor.LOOP_PARTS`), over the steps after the first, on rank 0.
 
@@ -354,11 +354,11 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
     :meth:`fricfem.model.reuse.ModelCache.build` to reuse one across scenes).
     The directory is locked while the run writes it; an exception on one rank of
     several ends the job (:func:`_guarded`).
-    """
 
     ``resume``: continue the killed or stopped run in ``out`` from its checkpoint
     (:mod:`fricfem.output.checkpoint`; ``scene`` must be the one it was written for),
     with the same bits as a run never stopped.
+    """
     t_start = time.perf_counter()
     out = Path(out)
     check_laws(scene, comm)
@@ -390,8 +390,8 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     """:func:`run_scene` once its directory is ready."""
     pm, model = build(scene, comm)
     summary = _summary(scene, pm, model, comm)
-    _check_step(scene, model, comm)
     aside = checkpoint.set_aside(out, comm) if header is not None else None  # the files to continue
+    _check_step(scene, model, comm)
     if not scene.watchdog["max_slip_rate"]:
         scene = scene._replace(watchdog={**scene.watchdog, "max_slip_rate": scene.material.c_l})
     every = max(1, int(round(scene.output["interface_every"] / model.dt)))

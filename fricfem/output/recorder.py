@@ -309,7 +309,6 @@ class Recorder:
             f.write(name, start, values)
         self.written = {"snapshots": n1, "energy": k1}
 
-    def history(self):
     def resume(self, old: Path, rows: dict) -> None:
         """Continue a run from its checkpoint (collective): the first ``rows`` of the
         killed or stopped run's file ``old`` (``snapshots``, ``energy``, ``stations``
@@ -365,6 +364,7 @@ class Recorder:
 
             raise RunDirError(error)
 
+    def history(self):
         """(time, slip_rate[n_t, n_p]) recorded so far (rank 0; None elsewhere)."""
         if self.comm.rank != 0:
             return None
