@@ -252,7 +252,7 @@ def fill(ni: int, nj: int, cells, known: dict, guessed: dict | None = None) -> t
 def adaptive(ni: int, nj: int, mi: int, mj: int, label_at, max_rounds: int = 64) -> tuple:
     """The whole refinement with a label oracle ``label_at(points) -> {point: label}``
     (a round at a time): ``(labels, computed, rounds)``, rounds = points per round.
-    The sweep runs the same loop with scenes (:mod:`fricfem.adaptive`)."""
+    The sweep runs the same loop with scenes (:mod:`fricfem.sweep.adaptive`)."""
     cells = coarse_cells(ni, nj, mi, mj)
     need = sorted(set().union(*(c.corners() for c in cells)))
     known, guessed, rounds = {}, {}, []

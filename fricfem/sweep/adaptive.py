@@ -14,7 +14,7 @@ points all agree stay as they are.  It ends when no cell needs refining
 point neither computed nor taken from its side gets the label of the uniform
 cell it lies in (:func:`fricfem.analysis.modemap.refine`, ``fill``).
 
-A round is an ordinary batch of scenes (:func:`fricfem.sweep.run_round`): the
+A round is an ordinary batch of scenes (:func:`.rounds.run_round`): the
 points are the same scenes, in the same directories, as the full map's, so a
 stopped adaptive map resumes like any sweep (complete points are reused, the
 rounds replay to where it stopped), and the refinement is deterministic.  If
@@ -34,7 +34,10 @@ map and compares it with the full one computed once).
 
 from __future__ import annotations
 
-from .analysis.modemap import coarse_cells, fill, refine
+from ..analysis.modemap import coarse_cells, fill, refine
+from .planning import VARIANTS
+from .records import point_label
+from .rounds import run_round
 
 #: Rounds at most (each halves the cells' sides: 2 log2(MAX_AXIS) is plenty).
 MAX_ROUNDS = 32
@@ -54,8 +57,6 @@ def run_adaptive(pool, spec: dict, log, coarse: tuple) -> tuple:
     """Run the rounds (collective on ``pool.comm``): ``(maps, points, results,
     refined)``; ``refined`` {map: {"labels", "computed", "coarse", "rounds",
     "scenes", "finished"}} and results on rank 0 (None elsewhere)."""
-    from .sweep import VARIANTS, point_label, run_round
-
     comm = pool.comm
     ni, nj = len(spec["sigma0"]), len(spec["v_imp"])
     state = select = None

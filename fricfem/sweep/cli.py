@@ -10,9 +10,11 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from .analysis.modemap import table, tag
-from .scene import SceneError
-from .sweep import DEFAULT_SIGMA0_MPA, DEFAULT_V_IMP, check_label, parse_axis, plan, sweep
+from ..analysis.modemap import table, tag
+from ..model.mesh import preset_names
+from ..scene import SceneError, cost
+from .planning import DEFAULT_SIGMA0_MPA, DEFAULT_V_IMP, check_label, parse_axis, plan
+from .running import sweep
 
 #: ``--coarse`` default: values per axis of the adaptive map's first grid.
 COARSE = 5
@@ -31,8 +33,6 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parser(comm=MPI.COMM_WORLD) -> argparse.ArgumentParser:
-    from .model.mesh import preset_names
-
     p = _Parser(prog="fricfem sweep", description="the sliding-mode map over Σ0 × V_imp (paper's Fig. 19); "
                 "resumable, parallel over points under mpirun")
     p.add_argument("scene", metavar="BASE_SCENE", help="shipped scene name or .toml file every point starts from")
@@ -77,8 +77,6 @@ def _check_cost(args, s, v, comm) -> tuple:
     an adaptive map counts as the full grid, its upper bound), unless ``--force``; the
     points' scale warnings once, on rank 0.  Nothing is built.  Returns the plan
     (maps, points), which the sweep then uses."""
-    from .scene import cost
-
     maps, points = plan(args.scene, s, v, args.set, args.preset, args.variants, Path(args.out))
     total = 0.0
     warned = []
