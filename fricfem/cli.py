@@ -211,6 +211,10 @@ def _run(args) -> int:
     from .scene import SceneError, cost
 
     _given(args, "--out")
+    if args.resume is not None:
+        return _resume(args)
+    if args.scene is None:
+        raise SceneError("fricfem run: give a scene (a shipped name or a .toml file), or --resume DIR")
     if args.check:
         extra = [n for n, v in (("--out", args.out), ("--overwrite", args.overwrite), ("--quiet", args.quiet))
                  if v not in (None, False)]
@@ -227,6 +231,40 @@ def _run(args) -> int:
     from . import runner as run
 
     summary = run.resolve_and_run(args.scene, args.set, args.out, args.overwrite, args.quiet)
+    return _report(summary)
+
+
+def _resume(args) -> int:
+    """``fricfem run [SCENE] --resume DIR``: continue the killed or stopped run in DIR from its
+    checkpoint; the scene is the checkpoint's own (``--set`` may change output-only keys such as
+    output.checkpoint_wall), or SCENE, which must be the same run."""
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    from . import runner as run
+    from . import scene as scene_mod
+    from .output import checkpoint
+    from .scene import SceneError
+
+    _given(args, "--resume")
+    extra = [n for n, v in (("--out", args.out), ("--overwrite", args.overwrite), ("--check", args.check))
+             if v not in (None, False)]
+    if extra:
+        raise SceneError(f"{', '.join(extra)}: not used with --resume (the run goes on in its own directory)")
+    out = Path(args.resume)
+    if args.scene is not None:
+        scene = _collective(lambda: scene_mod.load(args.scene, args.set))
+    else:
+        header = checkpoint.check_resume(out, MPI.COMM_WORLD)
+        scene = _collective(lambda: scene_mod.validate(scene_mod.apply_overrides(header["input"], args.set)))
+    return _report(run.run_scene(scene, out, MPI.COMM_WORLD, quiet=args.quiet, resume=True))
+
+
+def _report(summary) -> int:
+    """The run's one line on stderr (rank 0); the exit status: 0 for a complete run."""
+    from mpi4py import MPI
+
     if MPI.COMM_WORLD.rank == 0:
         mode = (summary.get("mode") or {}).get("label", "-")
         ini = summary.get("initiation")
@@ -300,7 +338,26 @@ class _Parser(argparse.ArgumentParser):
             super()._print_message(message, file)
 
 
+def _stdout_to_devnull() -> None:
+    """The reader of stdout left (``fricfem ... | head``): point stdout's descriptor at /dev/null, so that the
+    interpreter's final flush of what is still buffered goes nowhere instead of reporting the closed pipe."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
 def main(argv=None) -> int:
+    """The ``fricfem`` command. stdout is flushed here, inside the try: left to the interpreter's exit, the
+    last buffered block met the closed pipe there (``fricfem scenes --keys | head -c 10``, ``fricfem show
+    case1 | true``), which printed "Exception ignored on flushing sys.stdout: BrokenPipeError" and exited 120."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:  # the reader left; quietly, as other tools do
+        _stdout_to_devnull()
+        return 0
+
+
+def _main(argv) -> int:
     from ._startup import lighten_imports
 
     lighten_imports()  # ufl's and ffcx's version lookups without pkg_resources' scan (fricfem/_startup.py)
@@ -329,10 +386,14 @@ def main(argv=None) -> int:
                    help="override a scene key, e.g. --set loading.v_imp=10 (repeatable)")
     p.set_defaults(func=_show)
     p = sub.add_parser("run", help="run a scene (shipped name or .toml file); works under mpirun")
-    p.add_argument("scene", help="shipped scene name (see `fricfem scenes`) or path to a .toml file")
+    p.add_argument("scene", nargs="?",
+                   help="shipped scene name (see `fricfem scenes`) or path to a .toml file (with --resume: optional)")
     p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
                    help="override a scene key, e.g. --set loading.v_imp=10 (repeatable)")
     p.add_argument("--out", help="run directory (default runs/<scene>)")
+    p.add_argument("--resume", metavar="DIR",
+                   help="continue the killed or stopped run in DIR from its last checkpoint "
+                        "(output.checkpoint_every / output.checkpoint_wall), bit-identical to a run never stopped")
     p.add_argument("--overwrite", action="store_true", help="replace the run in a non-empty --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--check", action="store_true",
@@ -377,7 +438,7 @@ def main(argv=None) -> int:
     except ValueError as err:  # SceneError, RunDirError and every other bad-input error
         return _error(str(err))
     except BrokenPipeError:  # `fricfem ... | head`: the reader left; quietly, as other tools (before OSError)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # the exit's flush goes nowhere
+        _stdout_to_devnull()  # the exit's flush goes nowhere
         return 0
     except OSError as err:  # the file system failed under a run (no space, ...): one line naming the path
         _error(f"{err.filename}: {err.strerror}" if err.filename and err.strerror else f"{type(err).__name__}: {err}")

@@ -12,6 +12,7 @@ fails the test instead of hanging the suite.
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import signal
 import subprocess
@@ -336,11 +337,54 @@ def test_scenes_into_a_closed_pipe_is_quiet(comm):
     def run():
         res = subprocess.run(f"{sys.executable} -m fricfem.cli scenes --keys | head -c 10 >/dev/null; "
                              "echo ${PIPESTATUS[0]}", shell=True, executable="/bin/bash", capture_output=True,
-                             text=True, env=faults.clean_env(), timeout=JOB_TIMEOUT)
+                             text=True, env=_buffered_env(), timeout=JOB_TIMEOUT)
         return res.stdout.strip(), res.stderr
 
     rc, err = on_rank0(comm, run)
     assert rc in ("0", "141") and "error" not in err and "Traceback" not in err, (rc, err)
+
+
+def _buffered_env() -> dict:
+    """A separate job's environment with stdout block-buffered, as a user's shell has it
+    (PYTHONUNBUFFERED, if the suite's environment sets it, hides the interpreter's final flush)."""
+    env = faults.clean_env()
+    env.pop("PYTHONUNBUFFERED", None)
+    return env
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory, comm):
+    """A finished coarse case1 run (both ranks), for the commands that read a run directory."""
+    out = Path(comm.bcast(str(tmp_path_factory.mktemp("printed")) if comm.rank == 0 else None)) / "run"
+    assert cli.main(["run", "case1", "--set", "mesh.preset='coarse'", "--set", "time.end=15e-6", "--set",
+                     "output.fields=[]", "--quiet", "--out", str(out)]) == 0
+    comm.barrier()
+    return out
+
+
+@pytest.mark.parametrize("argv", [["scenes"], ["scenes", "--keys"], ["show", "case1"], ["--help"],
+                                  ["run", "case1", "--check"], ["export", "{run}", "--format", "csv", "--out",
+                                                                "{run}/csv"],
+                                  ["compare", "{run}", "{run}"], ["compare", "{run}", "{run}", "--json"]],
+                         ids=lambda argv: "-".join(a.strip("-{}") for a in argv[:3]))
+def test_every_printing_command_into_a_pipe_nobody_reads_is_quiet(small_run, comm, argv):
+    """stdout a pipe whose reader has already left: each write fails with EPIPE. Output smaller than
+    stdout's buffer was written only by the interpreter's final flush, which reported "Exception ignored
+    on flushing sys.stdout: BrokenPipeError" and exited 120 (``fricfem show case1``, on every Python;
+    ``fricfem scenes --keys | head -c 10`` on Python 3.13)."""
+    def run():
+        read, write = os.pipe()
+        os.close(read)  # nobody will read: the first write (or the exit's flush) meets a closed pipe
+        try:
+            res = subprocess.run(_fricfem(*(a.format(run=small_run) for a in argv)), stdout=write,
+                                 stderr=subprocess.PIPE, text=True, env=_buffered_env(), timeout=JOB_TIMEOUT)
+        finally:
+            os.close(write)
+        return res.returncode, res.stderr
+
+    rc, err = on_rank0(comm, run)
+    assert rc in (0, -signal.SIGPIPE) and "Exception ignored" not in err and "Traceback" not in err, (rc, err)
+    assert "error" not in err, err
 
 
 def test_a_sweep_printing_into_a_closed_pipe_under_two_ranks_ends_every_rank(tmp_path_factory, comm):
