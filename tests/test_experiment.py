@@ -64,7 +64,7 @@ def _run(scene, comm, lines):
 def test_grid_bodies_share_the_struck_edge():
     spec = load("experiment_42", ["mesh.preset='coarse'"]).mesh
     assert isinstance(spec, bodies.BodiesMesh) and spec.impact_b == 0.025
-    x, cells, ctags, facets, ftags = grid.grid_arrays(spec)
+    x, cells, ctags, facets, ftags = spec.grid_arrays()
     p = x[cells]
     area = 0.5 * ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
                   - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))

@@ -197,7 +197,7 @@ def test_tags_are_dolfinx_distributing_them(comm, scene):
     for where, c in comms(comm):
         pm = mesh.build(spec, c)
         if c.rank == 0:
-            _, cells, tags, facets, facet_tags = grid.grid_arrays(spec)
+            _, cells, tags, facets, facet_tags = spec.grid_arrays()
         else:
             cells, tags = np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int32)
             facets, facet_tags = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)

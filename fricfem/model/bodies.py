@@ -45,6 +45,7 @@ import numpy as np
 
 from ..keys import field
 from ..kernels.reduce import dot
+from .grid import TAGS, axis_nodes, plate_grid
 from .material import Material
 from .mesh import MeshSpec
 
@@ -106,6 +107,14 @@ class BodiesMesh(MeshSpec):
     projectile_length: float = 0.051
     steel_dx: float = 1.0e-3
 
+    def grid_arrays(self) -> tuple:
+        """The plates' grid with the buffer and the projectile (:func:`grid_arrays`)."""
+        return grid_arrays(self)
+
+    def write_msh(self, path: str) -> None:
+        """Write it as a gmsh model (:func:`write_msh`)."""
+        write_msh(self, path)
+
 
 def mesh_with_bodies(spec: MeshSpec, exp: Experiment) -> BodiesMesh:
     """``spec`` with the bodies of ``exp`` (the projectile's lower edge on the grid line impact_b)."""
@@ -141,8 +150,6 @@ def grid_arrays(spec: BodiesMesh) -> tuple:
     the projectile, in that order; cell tags ``buffer`` and ``projectile``;
     the lower plate's edge x1 = 0 is inside the body now (no facets), and the
     contact faces are tagged ``contact_buffer`` and ``contact_projectile``."""
-    from .grid import TAGS, axis_nodes, plate_grid
-
     lo, up = plate_grid(spec, False), plate_grid(spec, True)
     lo = lo._replace(edges={k: v for k, v in lo.edges.items() if k not in ("impact_lower", "left")})
     nx = len(axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())) - 1
@@ -223,8 +230,6 @@ def cell_materials(num, spec: BodiesMesh, material: Material, exp: Experiment) -
 
 
 def _face_nodes(num, name: str) -> np.ndarray:
-    from .grid import TAGS
-
     nodes = np.unique(num.facets[num.facet_tags == TAGS[name]])
     return nodes[np.argsort(num.x[nodes, 1], kind="stable")]
 
@@ -237,7 +242,7 @@ def contact_pairs(num, template, mass: np.ndarray, comm, target):
     buffer (Δu_n = u1(buffer) − u1(projectile), opening positive).  The pairs'
     negative forces are inserted into ``target`` (a vector with the layout of
     the displacement) at their dofs only.  Collective."""
-    from .interface import pair_geometry
+    from .interface import pair_geometry  # here: petsc4py only once a model is built (start-up: scenes import bodies)
 
     p, b = _face_nodes(num, "contact_projectile"), _face_nodes(num, "contact_buffer")
     if len(p) < 2 or len(p) != len(b) or not np.array_equal(num.x[p], num.x[b]):
@@ -268,7 +273,7 @@ class Launch(NamedTuple):
 
 def _handled_blocks(num, geometry) -> np.ndarray:
     """Global blocks of the frictional interface's nodes this rank's segments (or pairs) touch."""
-    from .interface import interface_nodes
+    from .interface import interface_nodes  # here: petsc4py only once a model is built (start-up)
 
     lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     segs = getattr(geometry, "segments", None)
@@ -279,6 +284,8 @@ def _handled_blocks(num, geometry) -> np.ndarray:
 def attach(num, K, mass, comm, friction_interface, spec: BodiesMesh, exp: Experiment) -> tuple:
     """The frictional interface with the projectile's contact (one interface for the
     step, :class:`fricfem.step.contact.WithContact`) and the :class:`Launch`.  Collective."""
+    # here, not at the top: the scene imports this module for its dataclasses, and the contact's law, step
+    # and petsc4py are needed only once a model is built (start-up time)
     from .. import friction as _friction  # noqa: F401  (the laws' kernels import the kernels module)
     from ..friction.contact import LAW
     from ..step.contact import WithContact
@@ -327,7 +334,7 @@ def field_moduli(V, spec: BodiesMesh, material: Material, exp: Experiment) -> _M
     for the field output's stresses (:class:`fricfem.output.fields.FieldWriter`
     takes them for ``material``): Homalite, and the steel in the buffer and the
     projectile (true stresses: the thickness factor is not applied)."""
-    from dolfinx import fem
+    from dolfinx import fem  # here: dolfinx only for the field output (start-up: scenes import bodies)
 
     from .. import compat
 
@@ -372,9 +379,7 @@ def write_msh(spec: BodiesMesh, path: str) -> None:
     """Write the grid with the bodies as a gmsh model (.msh): one discrete surface per
     cell tag and one curve per facet tag, physical groups named after
     :data:`fricfem.model.grid.TAGS`."""
-    import gmsh
-
-    from .grid import TAGS
+    import gmsh  # here: gmsh only to write a .msh file (start-up)
 
     x, cells, ctags, facets, ftags = grid_arrays(spec)
     names = {v: k for k, v in TAGS.items()}

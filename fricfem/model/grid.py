@@ -141,13 +141,9 @@ def grid_arrays(spec) -> tuple:
     int32[n_cells], facets int64[n_facets, 2], facet_tags int32[n_facets]);
     facets are grouped by tag in increasing tag order, lower plate before
     upper within a tag (the order a gmsh model of the grid is read back in).
-    A spec with the experiment's steel bodies (:class:`fricfem.model.bodies.BodiesMesh`)
-    adds them after the plates (:func:`fricfem.model.bodies.grid_arrays`).
+    The plates only: a mesh with the experiment's steel bodies adds them after the
+    plates (``spec.grid_arrays()``: :func:`fricfem.model.bodies.grid_arrays`).
     """
-    if hasattr(spec, "buffer_length"):
-        from .bodies import grid_arrays as with_bodies
-
-        return with_bodies(spec)
     lo, up = plate_grid(spec, False), plate_grid(spec, True)
     off = len(lo.x)
     x = np.vstack([lo.x, up.x])
@@ -192,12 +188,8 @@ def bisection_parts(centroids: np.ndarray, nparts: int) -> np.ndarray:
 
 def write_msh(spec, path: str) -> None:
     """Write the two-plate grid as a gmsh model (.msh) with physical groups named after :data:`TAGS`
-    (with the experiment's steel bodies: :func:`fricfem.model.bodies.write_msh`)."""
-    if hasattr(spec, "buffer_length"):
-        from .bodies import write_msh as with_bodies
-
-        return with_bodies(spec, path)
-    import gmsh
+    (the plates only; with the experiment's steel bodies: ``spec.write_msh(path)``)."""
+    import gmsh  # here: gmsh only to write a .msh file (start-up: the scene imports this module)
 
     gmsh.initialize()
     try:

@@ -40,6 +40,15 @@ class MeshSpec:
     grading: float = field(1.15, "", 1.0, 2.0, "cell-size growth ratio outside the fine region")
     max_size: float = field(5.0e-3, "m", 0.0, 10.0, "largest cell size", open_low=True)
 
+    def grid_arrays(self) -> tuple:
+        """The grid of this mesh (:func:`fricfem.model.grid.grid_arrays`); a mesh with the
+        experiment's bodies has its own (:class:`fricfem.model.bodies.BodiesMesh`)."""
+        return grid_arrays(self)
+
+    def write_msh(self, path: str) -> None:
+        """Write this grid as a gmsh model (:func:`fricfem.model.grid.write_msh`)."""
+        write_msh(self, path)
+
 
 def preset_names() -> tuple:
     """Names of the mesh definitions in ``meshes/``."""
@@ -173,10 +182,10 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
     from .. import compat
 
     if comm.rank == 0:
-        x, cells, cell_tags, facets, facet_tags = grid_arrays(spec)
+        x, cells, cell_tags, facets, facet_tags = spec.grid_arrays()
         centroids = x[cells].mean(axis=1)
         if msh_file:
-            write_msh(spec, msh_file)
+            spec.write_msh(msh_file)
     else:
         x, cells, centroids = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 2))
         cell_tags, facets, facet_tags = (np.zeros(0, dtype=np.int32), np.zeros((0, 2), dtype=np.int64),

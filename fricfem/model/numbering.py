@@ -16,8 +16,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .grid import grid_arrays
-
 
 class Numbering(NamedTuple):
     """This rank's dofs against the grid.
@@ -51,7 +49,7 @@ def numbering(pm, V) -> Numbering:
     (collective: one allgather of the owned blocks' global indices)."""
     from .. import compat
 
-    x, cells, _, facets, facet_tags = grid_arrays(pm.spec)
+    x, cells, _, facets, facet_tags = pm.spec.grid_arrays()
     msh = pm.mesh
     imap = V.dofmap.index_map
     n_local = imap.size_local + imap.num_ghosts
