@@ -49,6 +49,7 @@ import math
 import os
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -527,6 +528,120 @@ def resume(out: Path, header: dict, aside: dict, model, state, monitor) -> None:
         writer.resume(Path(aside[name]), meta["rows"] if name == "interface.h5" else meta["gauge_rows"] or 0)
     if monitor.writer is not None:
         monitor.writer.resume(meta["field_grids"] or [])
+    comm.Barrier()
+    if comm.rank == 0:
+        for path in aside.values():
+            if path is not None:
+                Path(path).unlink(missing_ok=True)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the observers of the one loop (fricfem.observe): what they accumulate, and the checkpoint as an observer
+
+
+class Watched(NamedTuple):
+    """The observers and writers whose accumulators a checkpoint holds (:mod:`fricfem.observe`)."""
+
+    tip: object  # observe.Tip: tip_t, tip_x, initiation
+    spikes: object  # observe.Spikes: peak, x1, time, first, steps_above
+    watchdog: object  # observe.Watchdog: diverged; its law_watch (a user's law) per point
+    energies: object  # observe.Energies: last, end
+    flusher: object  # observe.Flusher: flush() before a checkpoint
+    rec: object  # output.recorder.Recorder: rows written
+    writer: object  # output.fields.FieldWriter or None: snapshots written
+    gauges: object  # output.gauges.GaugeWriter or None: rows written
+
+
+def observed(w: Watched) -> dict:
+    """The accumulators of the observers ``w`` and how far each output got (this rank's
+    view; rank 0's is the one written): {"meta", "arrays", "points"} as :func:`snapshot` takes."""
+    sp, lw = w.spikes, w.watchdog.law_watch
+    meta = {
+        "initiation": w.tip.initiation, "diverged": w.watchdog.diverged,
+        "energy_last": w.energies.last, "energy_end": w.energies.end,
+        "spikes": {"peak": sp.peak, "x1": sp.x1, "time": sp.time, "first": sp.first, "steps_above": sp.steps_above},
+        "rows": {"snapshots": w.rec.written["snapshots"], "energy": w.rec.written["energy"],
+                 "stations": dict(w.rec.station_n)},
+        "field_grids": list(w.writer.grids) if w.writer is not None else None,
+        "gauge_rows": w.gauges.written if w.gauges is not None else None,
+        "law_watch_breaches": lw.breaches if lw is not None else None,
+    }
+    arrays = {"tip_t": np.asarray(w.tip.tip_t, dtype=np.float64), "tip_x": np.asarray(w.tip.tip_x, dtype=np.float64)}
+    points = {} if lw is None else {"d_last": lw.d_last, "slip_last": lw.slip_last, "signed": lw.signed}
+    return {"meta": meta, "arrays": arrays, "points": points}
+
+
+def restore_observed(w: Watched, header: dict, arrays: dict, point_arrays: dict) -> None:
+    """Set the observers' accumulators from a checkpoint (every rank)."""
+    meta = header["state"]["watchers"]
+    w.tip.tip_t = arrays["arrays/tip_t"].tolist()
+    w.tip.tip_x = arrays["arrays/tip_x"].tolist()
+    w.tip.initiation = meta["initiation"]
+    w.watchdog.diverged = meta["diverged"]
+    w.energies.last, w.energies.end = meta["energy_last"], meta["energy_end"]
+    sp, s = w.spikes, meta["spikes"]
+    sp.peak, sp.x1, sp.time, sp.steps_above = s["peak"], s["x1"], s["time"], s["steps_above"]
+    sp.first = None if s["first"] is None else tuple(s["first"])
+    lw = w.watchdog.law_watch
+    if lw is not None:
+        lw.d_last[:], lw.slip_last[:], lw.signed[:] = (point_arrays[k] for k in ("d_last", "slip_last", "signed"))
+        lw.breaches = meta["law_watch_breaches"] or 0
+
+
+class Checkpointer:
+    """The checkpoint as an observer of the loop (:mod:`fricfem.observe`'s contract),
+    placed after the flusher and the signals: after a step on the simulated-time
+    cadence (``output.checkpoint_every``), when rank 0 says the wall-clock interval
+    (``output.checkpoint_wall``) has passed (slot ``checkpoint`` of the loop's one
+    reduction), or when a signal stops the run (``signals``' slot), it flushes every
+    output and writes the checkpoint (:class:`Checkpoints`).  Never at the run's last step."""
+
+    slots = ("checkpoint",)
+    part = "flush"
+
+    def __init__(self, out: Path, scene, model, watched: Watched, signals):
+        self.checkpoints = Checkpoints(out, scene, model)
+        self.watched = watched
+        self.signals = signals
+        self.rank0 = model.comm.rank == 0
+
+    def bind(self, reduction) -> None:
+        self.red = reduction
+        self.i = reduction.slot("checkpoint")
+
+    def contribute(self, state, energy) -> None:
+        due = self.rank0 and self.checkpoints.wall_due(time.perf_counter())
+        self.red.local[self.i] = 1.0 if due else 0.0
+
+    def observe(self, state, energy) -> None:
+        signal = self.signals.red.glob[self.signals.i] > 0
+        if self.checkpoints.due(state.n, "signal" if signal else None, self.red.glob[self.i] > 0):
+            self.watched.flusher.flush(state)
+            self.checkpoints.take(state, observed(self.watched))
+
+
+def resume_observed(out: Path, header: dict, aside: dict, model, state, w: Watched) -> None:
+    """Put the checkpoint of ``out`` back into ``state`` and the observers ``w`` (collective;
+    as :func:`resume`)."""
+    arrays = read_arrays(Path(out) / CHECKPOINT_FILE, header)
+    point_arrays = restore(model, state, arrays, header)
+    restore_observed(w, header, arrays, point_arrays)
+    _reopen_files(out, header, aside, model.comm, w.rec, w.writer, w.gauges)
+
+
+def _reopen_files(out: Path, header: dict, aside: dict, comm, rec, writer, gauges) -> None:
+    """interface.h5 and gauges.h5 laid out again with their rows up to the checkpoint
+    copied back, the field snapshots after it dropped; the set-aside files removed."""
+    meta = header["state"]["watchers"]
+    for name, w in (("interface.h5", rec), ("gauges.h5", gauges)):
+        if w is None:
+            continue
+        if aside.get(name) is None:
+            raise CheckpointError(f"{Path(out) / name}: missing, so the run cannot continue from "
+                                  f"{Path(out) / CHECKPOINT_FILE}")
+        w.resume(Path(aside[name]), meta["rows"] if name == "interface.h5" else meta["gauge_rows"] or 0)
+    if writer is not None:
+        writer.resume(meta["field_grids"] or [])
     comm.Barrier()
     if comm.rank == 0:
         for path in aside.values():

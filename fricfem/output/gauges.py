@@ -196,6 +196,7 @@ class GaugeWriter:
                         self.h5["time"][:rows] = f["time"][:rows]
                         self.h5.flush()
                 self.written = rows
+                self.pending.clear()  # the row at t = 0 taken when the run was set up: in the file already
             except (OSError, KeyError) as err:
                 error = f"{old}: cannot resume from it: {err.strerror if isinstance(err, OSError) else err}"
         error = self.comm.bcast(error, root=0)
