@@ -1,4 +1,5 @@
-"""The peer-code problems as scenes (fricfem/scenes/tpv205_2d.toml, rsf_aging_2d.toml)
+"""The peer-code problems as scenes (fricfem/scenes/tpv205_2d.toml, rsf_aging_2d.toml,
+rsf_slip_2d.toml)
 and the scene features they need: ``friction.profiles`` (a parameter
 piecewise-linear along x1), ``friction.initial_state = "background"`` (the
 state from the traction outside the patches) — checked on the built points —
@@ -17,7 +18,7 @@ from fricfem import load_scene, runner
 from fricfem.model.build import build_model
 from fricfem.scene import SceneError
 
-from peer import score  # benchmarks/peer/score.py (benchmarks/ is on pytest's path)
+from peer import make_par, score  # benchmarks/peer/ (benchmarks/ is on pytest's path)
 
 A_KNOTS = [(0.0, 0.016), (0.012, 0.016), (0.015, 0.008), (0.055, 0.008), (0.058, 0.016), (0.070, 0.016)]
 COARSE = ["mesh.dx=1e-3", "mesh.dy=1e-3"]
@@ -49,11 +50,62 @@ def test_profile_and_background_state_on_the_points(comm, kind):
 
 def _points(model, comm):
     """x1, a, Ψ and the initial shear traction of every interface point (all ranks), by x1."""
-    pts = model.interface.points
+    pts = model.interface.initial
     mine = np.column_stack([model.interface.geometry.x1, pts.params[:, 0], pts.state[:, 0], pts.Ts0])
     allp = np.concatenate(comm.allgather(mine))
     allp = allp[np.argsort(allp[:, 0], kind="stable")]
     return allp.T
+
+
+def test_slip_law_scene_is_the_peers_input(comm):
+    """rsf_slip_2d.toml and the peer's input (make_par.py) are one problem: the same
+    friction numbers, a(x1) knots, tractions, and at every rigid node the state Ψ
+    the peer's θ_ini stands for, Ψ = f0 + b ln(V0 θ_ini/L) (θ_ini from the
+    background 5.5 MPa with the local a, the 7.5 MPa patch included)."""
+    scene = load_scene("rsf_slip_2d", COARSE)
+    p = make_par.SLIP
+    assert scene.law == "rate_state_slip" and scene.initial_state == "background"
+    assert {k: scene.params[k] for k in ("b", "L", "V0", "f0", "V_ini")} == {k: p[k] for k in ("b", "L", "V0", "f0", "V_ini")}
+    assert dict(scene.profiles)["a"] == tuple(make_par.SLIP_A_KNOTS)
+    x1, a, psi, ts0 = _points(build_model(scene, comm)[1], comm)
+    assert np.allclose(a, np.interp(x1, *zip(*make_par.SLIP_A_KNOTS)), rtol=0, atol=1e-15)
+    theta = make_par.theta_ini(a, make_par.SLIP_TAU_BG * make_par.SIGMA0, p=p)
+    assert np.allclose(psi, p["f0"] + p["b"] * np.log(p["V0"] * theta / p["L"]), rtol=1e-12)
+    # the traction: the peer's nodal value inside the patch and outside; a node on a
+    # patch edge carries the mean of its two sides (pair_mean: the patch acts over its
+    # own 6 mm, where the peer's edge nodes take the patch value)
+    x0, x1e = make_par.SLIP_PATCH
+    inside, edge = (x1 > x0 + 1e-9) & (x1 < x1e - 1e-9), np.isclose(x1, x0) | np.isclose(x1, x1e)
+    tau_bg, tau_nuc = (f * make_par.SIGMA0 for f in (make_par.SLIP_TAU_BG, make_par.SLIP_TAU_NUC))
+    assert inside.sum() == 5 and edge.sum() == 2
+    assert np.allclose(ts0[inside], tau_nuc) and np.allclose(ts0[edge], 0.5 * (tau_bg + tau_nuc))
+    assert np.allclose(ts0[~inside & ~edge], tau_bg)
+
+
+@pytest.mark.parametrize("v", [1e-9, 1e-3, 0.5, 8.0])
+@pytest.mark.parametrize("x", [0.2, 3.0, 40.0])
+def test_slip_law_is_the_peers_kind_3(v, x):
+    """fricfem's rate_state_slip (V_w default) and SEM2DPACK's BC_DYNFLT_RSF kind = 3
+    are one law: over a step at constant V (x = V dt/L) the peer's
+    θ' = (L/V) (θ V/L)^exp(−x) and fricfem's slide give the same Ψ, and the peer's
+    μ = a asinh[V/(2 V0) exp((f0 + b ln(V0 θ/L))/a)] the same strength — from a
+    state far from steady (the background's at V_ini = 1e-9 m/s)."""
+    from fricfem.friction import defaults, pack, rate_state_slip
+    from fricfem.friction.base import storage
+
+    sp = make_par.SLIP
+    params = {"a": sp["a_vw"], "b": sp["b"], "L": sp["L"], "V0": sp["V0"], "f0": sp["f0"], "V_ini": sp["V_ini"]}
+    theta0 = float(make_par.theta_ini(sp["a_vw"], 5.5e6, p=sp))
+    psi0 = sp["f0"] + sp["b"] * math.log(sp["V0"] * theta0 / sp["L"])
+    dt = x * sp["L"] / v
+    s = storage(rate_state_slip.LAW, [psi0])
+    law = rate_state_slip.LAW
+    strength = law.slide(pack(law, {**defaults(law), **params}), s, v, 10e6, 10e6, dt)
+    theta1 = sp["L"] / v * (theta0 * v / sp["L"]) ** math.exp(-x)
+    psi1 = sp["f0"] + sp["b"] * math.log(sp["V0"] * theta1 / sp["L"])
+    assert abs(s[0] - psi1) < 1e-12 * abs(psi1)
+    mu_peer = sp["a_vw"] * math.asinh(v / (2 * sp["V0"]) * math.exp(psi1 / sp["a_vw"]))
+    assert abs(strength / 10e6 - mu_peer) < 1e-12 * mu_peer
 
 
 PROFILE_CASES = [

@@ -14,9 +14,8 @@ import re
 
 import numpy as np
 
+from make_par import GEOMETRY  # fault length [m] and stations [mm] of each problem
 from read_sem2dpack import read_fault
-
-STATIONS_MM = [2, 8, 12, 16, 20, 24, 28, 32, 35, 38, 42, 46, 50, 54, 58, 62, 68]
 V_RUPT = 1e-3  # m/s, rupture-time threshold
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -65,10 +64,11 @@ def main():
     ap.add_argument("--note", default="")
     args = ap.parse_args()
 
+    lx, STATIONS_MM = GEOMETRY[args.problem]
     d = read_fault(os.path.join(args.run, "Flt05_sem2d"))
     t, x = d["t"], d["x"]
     meta = parse_info(args.run)
-    elem = 0.070 / meta["nelem_x"]
+    elem = lx / meta["nelem_x"]
     # SEM2DPACK uses the leapfrog scheme: the record written at step k holds
     # slip and traction at t_k = k dt but the slip rate at t_k + dt/2
     # (mid-step velocity).  Re-centre the slip rate on t_k by averaging the

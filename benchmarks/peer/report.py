@@ -84,8 +84,91 @@ def problem_md(name: str, prob: dict) -> list:
     L.append("")
     L += verdict_md(prob)
     L += goal_md(prob)
+    L += issue26_md(prob)
+    L += dt_md(name)
     L += stations_md(prob)
     return L
+
+
+GOAL_ORDER = 1.8  # issue 26: rupture-time convergence in h, monotone, of at least this order
+GOAL_SLIP_WHERE_TR = (0.5, 1.0)  # issue 26: slip within 1 % wherever rupture times are within 0.5 %
+GOAL_DT = (0.05, 0.2)  # issue 26: µs and % between dt_safety 0.9 and 0.45 at fixed h
+
+
+def issue26_md(prob: dict) -> list:
+    """Issue 26's stage-1 goals on the h ladders of the tree's own tags: the order of
+    the worst rupture-time error in h between neighbouring meshes (goal: monotone,
+    ≥ GOAL_ORDER) and the final slip of every run whose rupture times are within
+    0.5 % (goal: within 1 %)."""
+    L = ["### Issue 26 (stage 1): order in h, slip where t_r is accurate", "",
+         f"Order of the worst |Δt_r| against the peer between neighbouring meshes, log(e₁/e₂)/log(h₁/h₂) (goal: "
+         f"monotone, ≥ {GOAL_ORDER}; the reference's own spread limits what small errors mean); and the worst slip "
+         f"error of the runs whose worst Δt_r ≤ {GOAL_SLIP_WHERE_TR[0]} % (goal ≤ {GOAL_SLIP_WHERE_TR[1]} %).", ""]
+    for tag, t in prob["fricfem"].items():
+        if historical(t):
+            continue
+        for kind in ("rigid", "elastic"):
+            pts = series(t["runs"], kind)
+            if len(pts) < 2:
+                continue
+            orders = [math.log(r0["t_r_pct"] / r1["t_r_pct"]) / math.log(h0 / h1)
+                      for (h0, r0), (h1, r1) in zip(pts, pts[1:])]
+            mono = all(r1["t_r_pct"] < r0["t_r_pct"] for (_, r0), (_, r1) in zip(pts, pts[1:]))
+            met = mono and min(orders) >= GOAL_ORDER
+            L.append(f"- fricfem{_name(tag)} {kind}: worst Δt_r " + " → ".join(f"{r['t_r_pct']:.2f}" for _, r in pts)
+                     + f" % at h = " + " → ".join(f"{h * 1e3:g}" for h, _ in pts) + " mm; orders "
+                     + ", ".join(f"{o:.2f}" for o in orders) + f"; {'monotone' if mono else 'not monotone'} — "
+                     + ("**met**" if met else "**not met**"))
+            if len(pts) >= 3:  # self-convergence: free of the reference's own error
+                diffs = [_worst_change(r0, r1) for (_, r0), (_, r1) in zip(pts, pts[1:])]
+                own = [math.log(d0 / d1) / math.log(h0 / h1) for d0, d1, (h0, _), (h1, _)
+                       in zip(diffs, diffs[1:], pts, pts[1:])]
+                L.append(f"- fricfem{_name(tag)} {kind}, its own ladder (worst |t_r(h) − t_r(h/2)| over the stations, "
+                         f"free of the reference's error): " + " → ".join(f"{d:.3f}" for d in diffs) + " µs; orders "
+                         + ", ".join(f"{o:.2f}" for o in own))
+            acc = [(h, r) for h, r in pts if r["t_r_pct"] <= GOAL_SLIP_WHERE_TR[0]]
+            if acc:
+                L.append(f"- fricfem{_name(tag)} {kind}, slip where Δt_r ≤ {GOAL_SLIP_WHERE_TR[0]} %: "
+                         + ", ".join(f"h = {h * 1e3:g} mm {r['slip_pct']:.2f} %" for h, r in acc) + " — "
+                         + ("**met**" if all(r["slip_pct"] <= GOAL_SLIP_WHERE_TR[1] for _, r in acc)
+                            else "**not met**"))
+    return L + [""]
+
+
+def _worst_change(r0: dict, r1: dict) -> float:
+    """Worst |Δt_r| [µs] between two runs over the stations both scored (t_r > 1 µs in the peer)."""
+    t1 = {st["x_mm"]: st["t_r_s"] for st in r1["stations"] if "dt_r_us" in st}
+    return max(1e6 * abs(st["t_r_s"] - t1[st["x_mm"]]) for st in r0["stations"]
+               if "dt_r_us" in st and st["t_r_s"] is not None and t1.get(st["x_mm"]) is not None)
+
+
+def dt_md(name: str, path: Path = RESULTS / "peer_dt_convergence.json") -> list:
+    """The time-step study of dt_convergence.py for this problem (if run)."""
+    if not path.exists():
+        return []
+    doc = json.loads(path.read_text())
+    rows = sorted((r for r in doc["runs"].values() if r["problem"] == name),
+                  key=lambda r: (r["kind"] != "rigid", -r["h_m"]))
+    if not rows:
+        return []
+    tags = sorted({k.split("/")[0] for k, r in doc["runs"].items() if r["problem"] == name})
+    notes = "; ".join(f"`{tg}`: {doc['notes'][tg]}" for tg in tags)
+    L = ["### The step at fixed h", "",
+         f"`benchmarks/peer/dt_convergence.py` ({notes}; "
+         f"{doc['date']}): each kind at `time.dt_safety` 0.9 and 0.45 on one mesh; the worst change over the peer's "
+         f"stations (goal of issue 26: < {GOAL_DT[0]} µs and < {GOAL_DT[1]} %) and each step's errors against the "
+         f"peer.", "",
+         "| kind | h [mm] | dt at 0.9 / 0.45 [ns] | worst Δt_r [µs] (x) | worst Δslip [%] (x) | goal | "
+         "peer at 0.9: t_r [µs] (%) / slip [%] | peer at 0.45 | CPU [s] |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        a, b = (r["peer"][f"{sf:g}"] for sf in r["safety"])
+        ok = r["dt_r_us"] < GOAL_DT[0] and r["dslip_pct"] < GOAL_DT[1]
+        L.append(f"| {r['kind']} | {r['h_m'] * 1e3:g} | {r['dt_s'][0] * 1e9:.2f} / {r['dt_s'][1] * 1e9:.2f} | "
+                 f"{r['dt_r_us']:.3f} ({r['dt_r_x_mm']} mm) | {r['dslip_pct']:.2f} ({r['dslip_x_mm']} mm) | "
+                 f"{'**met**' if ok else '**not met**'} | {a['t_r_us']:.3f} ({a['t_r_pct']:.2f}) / {a['slip_pct']:.2f} | "
+                 f"{b['t_r_us']:.3f} ({b['t_r_pct']:.2f}) / {b['slip_pct']:.2f} | "
+                 f"{r['cpu_s'][0]:.1f} / {r['cpu_s'][1]:.1f} |")
+    return L + [""]
 
 
 def _ranks(prob):

@@ -61,6 +61,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import make_par  # noqa: E402  (the peer's inputs: the stations of each problem)
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -182,7 +185,7 @@ def overrides(problem: str, kind: str, h: float, t_end=None) -> list:
     sets = [f"mesh.dx={h!r}", f"mesh.dy={h!r}", f"interface.kind='{kind}'", "output.diagnostics=false"]
     if kind == "elastic":
         d = GAUSS_OFFSET * h
-        xs = [x for x in peer_metrics(problem, REFERENCE)["stations"]]
+        xs = make_par.GEOMETRY[problem][1]  # the peer's stations [mm]
         table = ", ".join(f'"x{x}mm_{s}" = {x * 1e-3 + sign * d!r}' for x in xs for s, sign in (("l", -1), ("r", 1)))
         sets.append(f"output.stations={{ {table} }}")
     if t_end is not None:
