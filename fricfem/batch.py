@@ -163,13 +163,29 @@ class SharedCounter:
 
 
 def run_scene_job(job: Job, comm, models=None) -> dict:
-    """The default work of a job: run its scene (overwriting the directory); the summary.
-    ``models``: a :class:`fricfem.model.reuse.ModelCache` to take the model from."""
+    """The default work of a job: run its scene (overwriting the directory), or continue it
+    from its checkpoint when its directory holds one of this scene (:func:`resumable`); the
+    summary.  ``models``: a :class:`fricfem.model.reuse.ModelCache` to take the model from."""
     from .runner import run_scene
 
-    if models is None:
-        return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True)
-    return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True, build=models.build)
+    build = {} if models is None else {"build": models.build}
+    if resumable(job, comm):
+        return run_scene(job.scene, job.dir, comm, quiet=True, resume=True, **build)
+    return run_scene(job.scene, job.dir, comm, overwrite=True, quiet=True, **build)
+
+
+def resumable(job: Job, comm) -> bool:
+    """Whether the job's directory holds an unfinished run of this very scene with a
+    checkpoint it can continue from (:func:`fricfem.output.checkpoint.check_resume`: the
+    same scene key and code, a whole file, not complete); collective on ``comm``.  Any
+    other directory's run starts again."""
+    from .output import checkpoint
+
+    try:
+        checkpoint.check_resume(Path(job.dir), comm, job.scene)
+    except checkpoint.CheckpointError:
+        return False
+    return True
 
 
 def _finished(record: dict) -> bool:

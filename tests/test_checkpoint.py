@@ -257,3 +257,26 @@ def test_refusals(comm, tmp_dir_shared, capsys, monkeypatch):
     plain = load_scene("case3", [s for s in SMALL if not s.startswith("output.checkpoint")])
     _cut(plain, tmp_dir_shared / "plain", comm, 20)
     refused(["run", "--resume", str(tmp_dir_shared / "plain")], "no checkpoint")
+
+
+def test_a_sweep_point_resumes_from_its_checkpoint(comm, tmp_dir_shared, monkeypatch):
+    """A batch job (fricfem sweep's points) whose directory holds an unfinished run of its
+    scene with a checkpoint continues from it — the same bits as a run never stopped —
+    and one with a checkpoint of other inputs starts again."""
+    from fricfem import batch
+    from fricfem.output import checkpoint
+    from rankcheck import count_calls
+
+    scene = load_scene("case3", SMALL)
+    runner.run_scene(scene, tmp_dir_shared / "full", comm, quiet=True)
+    _cut(scene, tmp_dir_shared / "point", comm, 20)
+    _cut(load_scene("case3", [*SMALL, "loading.sigma0=11e6"]), tmp_dir_shared / "other", comm, 20)
+    calls = count_calls(monkeypatch, {"resumed": (checkpoint, "resume_observed")})
+    jobs = [batch.Job("point", tmp_dir_shared / "point", scene), batch.Job("other", tmp_dir_shared / "other", scene)]
+    results = batch.run_jobs(jobs, comm, ranks_per_job=comm.size)
+    if RANK == 0:
+        assert [r.error for r in results] == [None, None]
+        assert all(r.record["complete"] for r in results)
+    assert calls["resumed"] == 1  # the point of this scene only
+    assert on_rank0(comm, lambda: compare(tmp_dir_shared / "point", tmp_dir_shared / "full")) == []
+    assert on_rank0(comm, lambda: compare(tmp_dir_shared / "other", tmp_dir_shared / "full")) == []
