@@ -220,6 +220,10 @@ def check_resume(out: Path, comm, scene=None) -> dict:
                 raise CheckpointError(f"--resume {str(out)!r}: the run there is complete (t = "
                                       f"{summary.get('t_s', 0) * 1e6:.6g} µs of time.end = "
                                       f"{summary.get('t_end_s', 0) * 1e6:.6g} µs): nothing to resume")
+            if summary.get("watchdog"):
+                raise CheckpointError(f"--resume {str(out)!r}: the watchdog stopped the run there ("
+                                      f"{' '.join(str(summary['watchdog']).split())[:200]}): it is finished, and "
+                                      "would diverge again; run it anew (--overwrite) with other settings")
             header = read_header(Path(out) / CHECKPOINT_FILE, scene)
             grids = header["state"]["watchers"].get("field_grids")
             if header["ranks"] != comm.size and grids:
