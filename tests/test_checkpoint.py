@@ -43,14 +43,14 @@ COARSE = ["--set", "mesh.preset='coarse'"]
 #: (name, ranks killed, ranks resumed, fricfem run arguments): three laws, both interface kinds
 CASES = [
     ("povirk_needleman-elastic", 2, 2,
-     ["case3", *COARSE, "--set", "time.end=150e-6", "--set", "output.fields=[40e-6,90e-6,140e-6]",
+     ["case3", *COARSE, "--set", "time.end=100e-6", "--set", "output.fields=[30e-6,60e-6,90e-6]",
       "--set", "output.gauges={g1=[0.03,0.01],g2=[0.09,-0.02]}", "--set", "output.checkpoint_every=10e-6"]),
     ("slip_weakening-rigid", 1, 1,
      ["rupture_sw", *COARSE, "--set", "interface.kind='rigid'", "--set", "time.end=150e-6",
       "--set", "output.fields=[50e-6,120e-6]", "--set", "output.checkpoint_every=10e-6"]),
     ("rate_state_aging-rigid", 2, 2,
      ["rsf_aging_2d", "--set", "mesh.dx=5e-4", "--set", "mesh.dy=5e-4", "--set", "mesh.max_size=0.005",
-      "--set", "time.end=60e-6", "--set", "output.gauges={g1=[0.035,0.004]}",
+      "--set", "time.end=40e-6", "--set", "output.gauges={g1=[0.035,0.004]}",
       "--set", "output.checkpoint_every=5e-6"]),
     # killed on 2 ranks, resumed on 1: no field snapshots (their nodes are in a partition's order)
     ("slip_weakening-elastic-2to1", 2, 1,
@@ -75,7 +75,7 @@ def _kill_after_checkpoint(args, out: Path, rows: int, ranks: int) -> dict:
     faults.kill_tree(p.pid)
     p.wait()
     return {"rows_seen": seen, "ended_before_kill": ended, "lock_left": (out / LOCK_FILE).is_file(),
-            "checkpoint_step": read_header(out / CHECKPOINT_FILE)["step"] if seen else None}
+            "checkpoint_step": read_header(out / CHECKPOINT_FILE, check_code=False)["step"] if seen else None}
 
 
 def _resume(out: Path, ranks: int) -> subprocess.CompletedProcess:
@@ -130,6 +130,13 @@ def test_sigkill_then_resume_is_bit_identical(comm, tmp_dir_shared, name, ranks,
     (drawn with a fixed seed, after its first checkpoint) and continued with
     ``--resume``: the same bits (the killed run's stale lock taken over)."""
     def run_case():
+        for _ in range(2):  # again once if fricfem's sources changed meanwhile (an edit in the tree: refused, rightly)
+            got = attempt()
+            if "another version of fricfem's code" not in got[2]:
+                return got
+        return got
+
+    def attempt():
         ref, out = tmp_dir_shared / "complete", tmp_dir_shared / "killed"
         assert faults.start(args, ref, ranks=ranks).wait(timeout=900) == 0, f"the complete run of {name} failed"
         t = open_run(ref).t
@@ -280,3 +287,17 @@ def test_a_sweep_point_resumes_from_its_checkpoint(comm, tmp_dir_shared, monkeyp
     assert calls["resumed"] == 1  # the point of this scene only
     assert on_rank0(comm, lambda: compare(tmp_dir_shared / "point", tmp_dir_shared / "full")) == []
     assert on_rank0(comm, lambda: compare(tmp_dir_shared / "other", tmp_dir_shared / "full")) == []
+
+
+def test_wall_clock_checkpoints_then_resume(comm, tmp_dir_shared):
+    """``output.checkpoint_wall`` alone: rank 0's clock decides (here every step is past
+    the interval) and every rank takes the checkpoint in the same step (the loop's one
+    reduction); the run broken off goes on from it to the same bits."""
+    sets = [s for s in SMALL if not s.startswith("output.checkpoint")] + ["output.checkpoint_wall=1e-9"]
+    scene = load_scene("case3", sets)
+    runner.run_scene(scene, tmp_dir_shared / "full", comm, quiet=True)
+    _cut(scene, tmp_dir_shared / "cut", comm, 20)
+    step = on_rank0(comm, lambda: read_header(tmp_dir_shared / "cut" / CHECKPOINT_FILE)["step"])
+    assert step in (19, 20)  # the last step before the break (no simulated-time cadence is set)
+    assert runner.run_scene(scene, tmp_dir_shared / "cut", comm, quiet=True, resume=True)["complete"]
+    assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []

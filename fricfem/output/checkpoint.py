@@ -153,10 +153,11 @@ def write_file(path: Path, header: dict, arrays: dict) -> int:
     return len(MAGIC) + len(text) + 1 + len(payload)
 
 
-def read_header(path: Path, scene=None) -> dict:
-    """The checkpoint's header, checked: magic, format, code version, payload length
-    and SHA-256, and (``scene`` given) the scene key; :class:`CheckpointError` in one
-    line naming the file and what differs.  Reads the whole file (its hash), builds nothing."""
+def read_header(path: Path, scene=None, check_code: bool = True) -> dict:
+    """The checkpoint's header, checked: magic, format, code version (unless
+    ``check_code`` is False), payload length and SHA-256, and (``scene`` given) the
+    scene key; :class:`CheckpointError` in one line naming the file and what differs.
+    Reads the whole file (its hash), builds nothing."""
     path = Path(path)
     name = str(path)
     try:
@@ -179,7 +180,7 @@ def read_header(path: Path, scene=None) -> dict:
     if header.get("format") != FORMAT:
         raise CheckpointError(f"{name}: checkpoint format {header.get('format')!r}, this fricfem reads format "
                               f"{FORMAT}")
-    if header.get("code") != code_version():
+    if check_code and header.get("code") != code_version():
         raise CheckpointError(f"{name}: written by another version of fricfem's code (sources "
                               f"{str(header.get('code'))[:12]}, this code {code_version()[:12]}); a restart "
                               "must run the code that wrote it")
@@ -510,6 +511,8 @@ def set_aside(out: Path, comm) -> dict:
             if not aside.exists() and path.exists():
                 os.replace(path, aside)
             found[name] = str(aside) if aside.exists() else None
+        # a checkpoint the kill interrupted (the last whole one is in place)
+        (Path(out) / f".{CHECKPOINT_FILE}.part").unlink(missing_ok=True)
     return comm.bcast(found, root=0)
 
 
