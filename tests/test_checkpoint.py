@@ -301,3 +301,29 @@ def test_wall_clock_checkpoints_then_resume(comm, tmp_dir_shared):
     assert step in (19, 20)  # the last step before the break (no simulated-time cadence is set)
     assert runner.run_scene(scene, tmp_dir_shared / "cut", comm, quiet=True, resume=True)["complete"]
     assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []
+
+
+def test_a_user_law_resumes_with_its_watch(comm, tmp_dir_shared, clean_laws):
+    """A user's law (checked as it runs: fricfem.observe.LawWatch, per point) is
+    checkpointed with its watch's per-point memory in the grid's order and resumes
+    to the same bits."""
+    import numba
+
+    from userlaws import coulomb_advance
+    from fricfem import friction, register_law
+    from fricfem.friction import Law, Param
+
+    @numba.njit
+    def mu(p, v):
+        return p[0]
+
+    register_law(Law(name="ckpt_coulomb", doc="Coulomb", params=(Param("mu", 0.3, "", 0.0, 1.0, "coefficient"),),
+                     state=(), advance=coulomb_advance, steady_mu=mu, initial_state=lambda p, Tn0, Ts0: np.zeros(0)))
+    assert "ckpt_coulomb" in friction.LAWS
+    scene = load_scene("case1", ["mesh.preset='coarse'", "loading.v_imp=20.0", "time.end=20e-6", "output.fields=[]",
+                                 "friction.law='ckpt_coulomb'", "output.checkpoint_every=3e-6"])
+    full = runner.run_scene(scene, tmp_dir_shared / "full", comm, quiet=True)
+    assert full["complete"] and full["initiation"] is not None  # it slides: the watch has something to hold
+    _cut(scene, tmp_dir_shared / "cut", comm, 50)
+    assert runner.run_scene(scene, tmp_dir_shared / "cut", comm, quiet=True, resume=True)["complete"]
+    assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []
