@@ -33,6 +33,16 @@ run will take), "at least one step" from ``dt_high``.  A fixed ``time.dt``
 is used as given.  Checked against built models (tests/test_hostile_input.py,
 docs/scenes.md): the built λmax lies inside the bracket.
 
+Memory.  The peak resident memory of a run, summed over its ranks, is
+``(MEMORY["rank"] + MEMORY["compile"]) × ranks + MEMORY["quad"] ×
+quadrilaterals`` plus the interface snapshots rank 0 keeps for the end-of-run diagnostics
+(:func:`memory_bytes`): a fit to the peaks measured with
+``benchmarks/memory.py`` (below, at :data:`MEMORY`).  The peak is the
+set-up's (the loop adds under 1 %).  A scene whose estimate, for the ranks
+on this node, exceeds the node's available memory (``MemAvailable`` of
+/proc/meminfo) is refused unless ``--force``, before any mesh is built
+(the out-of-memory killer would otherwise end it during the set-up).
+
 Budget (:data:`BUDGET`): a run above any of these is refused unless
 ``--force``; above :data:`HARD` it is refused always.
 """
@@ -58,6 +68,27 @@ RATE = 1e8
 
 #: The interface quantities stored per point and snapshot (interface.h5), an upper bound.
 _QUANTITIES = 12
+
+#: Peak resident memory [bytes], summed over the ranks: ``rank`` per rank (the interpreter,
+#: dolfinx, PETSc, numba and the compiled kernels: 184 MB of it after the imports) and ``quad``
+#: per quadrilateral of the grid (mesh, numbering, K's rows, K as a PETSc matrix, the fused
+#: rows; 4.0 dofs per quadrilateral on these grids, so 3.0 kB per dof).  Least-squares fit to
+#: 12 cold set-ups (FRICFEM_CACHE off: λmax by power iteration, K assembled), rsf_aging_2d with
+#: mesh.fine_height = 24 mm at h = 0.5, 0.25, 0.125 mm (16.8k, 62.7k, 237k quadrilaterals),
+#: interface.kind rigid and elastic, absorbing edges off and on, 2 ranks, VmHWM summed over
+#: the ranks after a 2 µs loop: 612-637, 1163-1170, 3268-3314 MB; the fit is within 26 MB of
+#: every run, and neither the interface kind nor the absorbing edges move the peak by more
+#: (K's assembly and the power iteration add 30 MB at 237k); checked off the fit at h = 0.05 mm,
+#: a 4 mm band (325k quadrilaterals, 1.3M dofs): 4342 MB measured, 4356 MB fitted:
+#:
+#:     export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1
+#:     mpirun -n 2 .venv/bin/python benchmarks/memory.py --h 1.25e-4 --band 0.024 --kind elastic
+#:
+#: (issue 26 saw 11.3 GB at 950k quadrilaterals: 0.41 + 11.5 GB by this fit.)  ``compile``: a
+#: rank that compiles the kernels (the first run after a change of a kernel's source, numba's
+#: cache then refilled) holds LLVM's memory besides, 0.28 GB a rank (h = 1 mm, 2 ranks: 1010
+#: MB against 448 MB with the cache warm); the estimate counts it, so as never to be short.
+MEMORY = {"rank": 2.05e8, "quad": 1.215e4, "compile": 2.8e8}
 
 
 def axis_count(length, fine, h, ratio, hmax) -> float:
@@ -130,6 +161,8 @@ class Estimate(NamedTuple):
     steps: float  # from dt_low: never fewer than the run takes
     dof_steps: float
     output_bytes: float  # interface.h5, about
+    memory_bytes: float = 0.0  # peak resident memory, all ranks together (:func:`memory_bytes`)
+    ranks: int = 1  # the ranks memory_bytes is for
 
     def over(self, limits: dict) -> list:
         """The (what, estimate, limit) triples above ``limits``."""
@@ -141,7 +174,8 @@ class Estimate(NamedTuple):
         return (f"{self.quads:.3g} quadrilaterals, {self.dofs:.3g} dofs, {self.interface_points:.3g} interface "
                 f"points, smallest cell {self.h_min[0]:.3g} × {self.h_min[1]:.3g} m; {dt}, about "
                 f"{self.steps:.3g} steps; {self.dof_steps:.3g} dof·steps; interface output about "
-                f"{self.output_bytes / 1e6:.3g} MB")
+                f"{self.output_bytes / 1e6:.3g} MB; memory about {self.memory_bytes / 1e9:.3g} GB on "
+                f"{self.ranks} rank(s)")
 
     def as_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self._asdict().items()}
@@ -215,8 +249,46 @@ def steel(exp, ys) -> tuple:
     return cells, nodes, lam
 
 
-def estimate(scene) -> Estimate:
-    """The size, step and cost of a validated scene's run (no mesh built)."""
+def memory_bytes(quads: float, ranks: int, snapshot_bytes: float = 0.0) -> float:
+    """Peak resident memory of a run [bytes], all ``ranks`` together (:data:`MEMORY`),
+    plus ``snapshot_bytes``: the interface rows rank 0 keeps until the end."""
+    return (MEMORY["rank"] + MEMORY["compile"]) * max(int(ranks), 1) + MEMORY["quad"] * quads + snapshot_bytes
+
+
+def available_bytes() -> float | None:
+    """This node's available memory [bytes] (``MemAvailable`` of /proc/meminfo), or None
+    where there is no such file."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def node_ranks() -> tuple:
+    """(ranks of the run, ranks on this node), without a collective call: from the MPI
+    launcher's environment (Open MPI's ``OMPI_COMM_WORLD_SIZE``/``_LOCAL_SIZE``, MPICH's
+    ``PMI_SIZE``/``MPI_LOCALNRANKS``), else mpi4py's world if it is loaded, else (1, 1)."""
+    import os
+    import sys
+
+    env = os.environ
+    for world, local in (("OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_LOCAL_SIZE"), ("PMI_SIZE", "MPI_LOCALNRANKS")):
+        try:
+            n = int(env[world])
+            return n, int(env.get(local, n))
+        except (KeyError, ValueError):
+            continue
+    mpi = sys.modules.get("mpi4py.MPI")
+    n = mpi.COMM_WORLD.size if mpi is not None else 1
+    return n, n
+
+
+def estimate(scene, ranks: int = 1) -> Estimate:
+    """The size, step and cost of a validated scene's run on ``ranks`` ranks (no mesh built)."""
     spec = scene.mesh
     xs, ys = axes(spec)
     nx, ny = len(xs) - 1, len(ys) - 1
@@ -246,8 +318,9 @@ def estimate(scene) -> Estimate:
     snaps = min(steps, scene.t_end / scene.output["interface_every"]) + 1
     stations = len(scene.output["stations"])
     out = 8.0 * (snaps * points * _QUANTITIES + (steps + 1) * stations * _QUANTITIES)
+    mem = memory_bytes(quads, ranks, 8.0 * snaps * points * _QUANTITIES)
     return Estimate(quads, nodes, 2 * nodes, points, (hx, hy), crit, dt_low, dt_high, bool(scene.dt), steps,
-                    2 * nodes * steps, out)
+                    2 * nodes * steps, out, mem, max(int(ranks), 1))
 
 
 def notice(est: Estimate, ranks: int = 1) -> str | None:
@@ -262,17 +335,27 @@ def notice(est: Estimate, ranks: int = 1) -> str | None:
 _WHAT = {"quads": "quadrilaterals", "steps": "steps", "dof_steps": "dof·steps", "output_bytes": "bytes of output"}
 
 
-def check(scene, force: bool = False) -> Estimate:
-    """The estimate, or a SceneError when it exceeds :data:`HARD`, or
-    :data:`BUDGET` without ``force``; the message states both."""
+def check(scene, force: bool = False, ranks=None, available=None) -> Estimate:
+    """The estimate, or a SceneError when it exceeds :data:`HARD`, or, without
+    ``force``, the memory available on this node or :data:`BUDGET`; the message
+    states both.  ``ranks``: (ranks of the run, ranks on this node), default
+    :func:`node_ranks`; ``available`` [bytes]: default :func:`available_bytes`
+    (None: not checked).  Not collective."""
     from .schema import SceneError
 
-    est = estimate(scene)
+    n, local = node_ranks() if ranks is None else ranks
+    est = estimate(scene, n)
     hard = est.over(HARD)
     if hard:
         what, value, limit = hard[0]
         raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated; at most {limit:.3g} are "
                          f"possible (even with --force). Estimate: {est.text()}")
+    free = available_bytes() if available is None else available
+    here = est.memory_bytes * min(local, n) / max(n, 1)  # this node's share of the ranks
+    if free is not None and here > free and not force:
+        raise SceneError(f"{scene.name}: about {here / 1e9:.3g} GB of memory estimated for the {min(local, n)} "
+                         f"rank(s) on this node, above the {free / 1e9:.3g} GB available (MemAvailable); "
+                         f"pass --force to run it anyway. Estimate: {est.text()}")
     over = est.over(BUDGET)
     if over and not force:
         what, value, limit = over[0]
