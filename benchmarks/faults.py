@@ -79,20 +79,49 @@ def _children() -> dict:
     return out
 
 
-def kill_tree(pid: int) -> int:
-    """SIGKILL ``pid`` and every descendant (mpirun puts its ranks in process groups
-    of their own, so a group kill misses them); the number killed."""
-    tree, todo, found = _children(), [pid], []
+def tree(pid: int) -> list:
+    """``pid`` and every descendant (mpirun puts its ranks in process groups of their
+    own, so a group signal misses them)."""
+    children, todo, found = _children(), [pid], []
     while todo:
         p = todo.pop()
         found.append(p)
-        todo += tree.get(p, [])
+        todo += children.get(p, [])
+    return found
+
+
+def signal_tree(pid: int, sig: int) -> int:
+    """Send ``sig`` to ``pid`` and every descendant; the number signalled."""
+    found = tree(pid)
     for p in found:
         try:
-            os.kill(p, signal.SIGKILL)
+            os.kill(p, sig)
         except ProcessLookupError:
             pass
     return len(found)
+
+
+def kill_tree(pid: int) -> int:
+    """SIGKILL ``pid`` and every descendant; the number killed."""
+    return signal_tree(pid, signal.SIGKILL)
+
+
+def lock_holder(out: Path, jobs: list, poll_s: float = 0.02):
+    """Wait for the event: one of ``jobs`` (from :func:`start`) holds ``out``'s lock, its
+    pid read from the lock file and found in that job's process tree; that job (None if
+    every job ended first).  No clock: ``poll_s`` is only how often the file is looked at."""
+    from fricfem.output.directory import LOCK_FILE
+
+    while any(j.poll() is None for j in jobs):
+        try:
+            pid = json.loads((Path(out) / LOCK_FILE).read_text())["pid"]
+        except (OSError, ValueError, KeyError, TypeError):
+            pid = None
+        for j in jobs:
+            if pid is not None and j.poll() is None and pid in tree(j.pid):
+                return j
+        time.sleep(poll_s)
+    return None
 
 
 def _same(a, b) -> bool:
@@ -279,7 +308,7 @@ def main(argv=None) -> int:
     if args.report_only:
         (RESULTS / "faults.md").write_text(report(json.loads((RESULTS / "faults.json").read_text())))
         return 0
-    from fricfem.monitor import FLUSH_ROWS
+    from fricfem.observe import FLUSH_ROWS
     from fricfem import open_run
 
     work = Path(args.work)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -214,17 +215,30 @@ def test_a_second_run_into_a_running_directory_fails_at_once(comm, tmp_dir_share
 @pytest.mark.slow
 def test_two_concurrent_runs_into_one_directory(comm, tmp_dir_shared):
     """Two 2-rank jobs started together into one directory: one runs to completion,
-    the other fails within seconds naming it; the directory holds one complete run."""
+    the other fails naming it; the directory holds one complete run.  The job that
+    took the lock is paused (SIGSTOP to its tree) from the moment its lock is seen
+    until the other has ended: on a loaded machine the other might otherwise reach
+    the directory only after the first had finished, and rerun it (--overwrite)."""
     def work():
         out = tmp_dir_shared / "both"
         args = ["case1", "--set", "mesh.preset='coarse'", "--set", "output.fields=[]"]
         a = faults.start(args, out, log=tmp_dir_shared / "a.log")
         b = faults.start(args, out, log=tmp_dir_shared / "b.log")
+        holder = faults.lock_holder(out, [a, b])
+        try:
+            if holder is not None:
+                faults.signal_tree(holder.pid, signal.SIGSTOP)
+                (b if holder is a else a).wait(timeout=900)  # bounds a hang only
+        finally:
+            if holder is not None:
+                faults.signal_tree(holder.pid, signal.SIGCONT)
         ra, rb = a.wait(timeout=900), b.wait(timeout=900)  # bounds a hang only
         logs = [(tmp_dir_shared / f"{k}.log").read_text() for k in "ab"]
-        return ra, rb, logs, json.loads((out / "summary.json").read_text())["complete"], len(open_run(out).t)
+        return holder is not None, ra, rb, logs, json.loads((out / "summary.json").read_text())["complete"], \
+            len(open_run(out).t)
 
-    ra, rb, logs, complete, rows = on_rank0(comm, work)
+    seen, ra, rb, logs, complete, rows = on_rank0(comm, work)
+    assert seen, ("neither job was seen holding the lock", ra, rb, logs)
     assert sorted([ra, rb]) == [0, 2], logs
     loser = logs[[ra, rb].index(2)]
     assert "another fricfem run is writing there" in loser and "Traceback" not in loser
