@@ -59,7 +59,8 @@ def test_the_command_refuses_a_scene_larger_than_this_machine(capsys, no_mesh, t
     # quadrilaterals enough to need more than twice the memory this node has (still within HARD):
     # two 70 × 40 mm plates of h × h cells
     quads = 2.4 * free / cost.MEMORY["quad"]
-    assert quads < cost.HARD["quads"]
+    if quads > cost.BUDGET["quads"]:  # a node this large: the budget of quadrilaterals refuses first
+        pytest.skip(f"{free / 1e9:.3g} GB available: no scene within the budget exceeds it")
     h = (2 * 0.07 * 0.04 / quads) ** 0.5
     out = tmp_path / "never"
     argv = ["run", "rsf_aging_2d", "--set", f"mesh.dx={h:.3e}", "--set", f"mesh.dy={h:.3e}",

@@ -337,7 +337,7 @@ _WHAT = {"quads": "quadrilaterals", "steps": "steps", "dof_steps": "dof·steps",
 
 def check(scene, force: bool = False, ranks=None, available=None) -> Estimate:
     """The estimate, or a SceneError when it exceeds :data:`HARD`, or, without
-    ``force``, the memory available on this node or :data:`BUDGET`; the message
+    ``force``, :data:`BUDGET` or the memory available on this node; the message
     states both.  ``ranks``: (ranks of the run, ranks on this node), default
     :func:`node_ranks`; ``available`` [bytes]: default :func:`available_bytes`
     (None: not checked).  Not collective."""
@@ -350,15 +350,15 @@ def check(scene, force: bool = False, ranks=None, available=None) -> Estimate:
         what, value, limit = hard[0]
         raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated; at most {limit:.3g} are "
                          f"possible (even with --force). Estimate: {est.text()}")
+    over = est.over(BUDGET)
+    if over and not force:
+        what, value, limit = over[0]
+        raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated, above the budget of "
+                         f"{limit:.3g}; pass --force to run it anyway. Estimate: {est.text()}")
     free = available_bytes() if available is None else available
     here = est.memory_bytes * min(local, n) / max(n, 1)  # this node's share of the ranks
     if free is not None and here > free and not force:
         raise SceneError(f"{scene.name}: about {here / 1e9:.3g} GB of memory estimated for the {min(local, n)} "
                          f"rank(s) on this node, above the {free / 1e9:.3g} GB available (MemAvailable); "
                          f"pass --force to run it anyway. Estimate: {est.text()}")
-    over = est.over(BUDGET)
-    if over and not force:
-        what, value, limit = over[0]
-        raise SceneError(f"{scene.name}: about {value:.3g} {_WHAT[what]} estimated, above the budget of "
-                         f"{limit:.3g}; pass --force to run it anyway. Estimate: {est.text()}")
     return est
