@@ -149,8 +149,13 @@ def probe(scene: str, sets: list, out: Path, comm=None) -> dict:
         timers.wrap(build_mod, "canonical_mass", "mass")
         timers.wrap(build_mod, "max_eigenvalue", "dt")
 
-        timers.wrap(runner, "_loop", "loop")
-        timers.wrap(runner.Monitor, "observe", "observe")  # the loop's outputs (monitor.seconds)
+        timers.wrap(runner, "run", "loop")  # the time loop (fricfem.step.run over evolve)
+        from fricfem import observe
+
+        for cls in {type(o) for o in vars(observe).values() if isinstance(o, type)}:
+            for verb in ("observe", "contribute"):  # the loop's outputs (the observers)
+                if verb in vars(cls):
+                    timers.wrap(cls, verb, "observe")
 
         cfg = load_scene(scene, sets)
         t_run = time.perf_counter()
@@ -160,11 +165,11 @@ def probe(scene: str, sets: list, out: Path, comm=None) -> dict:
         timers.restore()
     w = summary["wall_s"]
     # the phases from the probe's own clock: setup until the loop starts, the loop less the
-    # monitor's outputs inside it, the outputs (inside the loop and after it); JIT goes to the
+    # observers' outputs inside it, the outputs (inside the loop and after it); JIT goes to the
     # phase it started in (a kernel first compiled in a snapshot is output JIT)
     (_, loop0, loop_s), = [c for c in timers.calls if c[0] == "loop"]
     loop1 = loop0 + loop_s
-    observe_s = timers.total("observe")  # the monitor is called only inside the loop
+    observe_s = timers.total("observe")  # the observers are called only inside the loop
     in_observe = {k: timers.inside((k,), "observe") for k in ("ffcx", "numba")}
     jit_setup = {k: timers.total(k, t_run, loop0) for k in ("ffcx", "numba")}
     jit_loop = {k: timers.total(k, loop0, loop1) - in_observe[k] for k in ("ffcx", "numba")}

@@ -78,7 +78,7 @@ from mpi4py import MPI
 from fricfem import load_scene, open_run
 from fricfem import runner
 from fricfem.model.build import build_model
-from fricfem.monitor import energy_scale
+from fricfem.observe import energy_scale
 from fricfem.scene import SceneError
 
 # the factors, the design and the shared constants (benchmarks/ is this script's
@@ -107,7 +107,7 @@ def finite_check(rundir: Path) -> dict:
     terms holding a non-finite value; ``peak``: the largest finite slip rate
     [m/s] (snapshots and stations); from the energy history (every
     ``output.energy_every`` steps), each row relative to its energy scale
-    (:func:`fricfem.monitor.energy_scale`, the watchdog's): ``kinetic_min_rel``,
+    (:func:`fricfem.observe.energy_scale`, the watchdog's): ``kinetic_min_rel``,
     the smallest kinetic energy, and ``balance_rel``, the largest |balance
     error|; ``kinetic_min`` [J/m] and ``external_max`` [J/m]; ``tn_max`` [Pa],
     the largest normal traction, and ``open_fraction_max``, the largest share of

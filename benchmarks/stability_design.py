@@ -10,7 +10,7 @@ import math
 import random
 
 from fricfem import load_scene
-from fricfem.monitor import closure_bound
+from fricfem.observe import closure_bound
 
 BASE = "case1"
 

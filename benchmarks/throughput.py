@@ -57,25 +57,13 @@ class Snapshot:
 
     def __init__(self, model, state):
         self.model = model
-        self.u = state.u.array_r.copy()
-        self.v = state.v.array_r.copy()
-        self.t, self.n, self.work = state.t, state.n, state.work_ext
-        self.prev = np.array(state.u_imp_prev, copy=True)
-        self.react = np.array(state.react_prev, copy=True)
-        self.act = state.act.copy()  # the rows awake in the run (a hand-set state would otherwise skip them)
-        self.points = [a.copy() for a in model.interface.points]
+        self.saved = state.snapshot()  # u, v, t, the interface points, the rows awake, ...
+        self.u = self.saved["u"]
 
     def state(self):
-        """A new state equal to the snapshot (the interface points are reset too)."""
+        """A new state equal to the snapshot (State.restore: it steps on with the same bits)."""
         st = State(self.model)
-        st.u.array[:] = self.u
-        st.v.array[:] = self.v
-        st.t, st.n, st.work_ext = self.t, self.n, self.work
-        st.u_imp_prev = self.prev.copy()
-        st.react_prev = self.react.copy()
-        st.act[:] = self.act
-        for a, s in zip(self.model.interface.points, self.points):
-            a[...] = s
+        st.restore(self.saved)
         return st
 
 
@@ -106,7 +94,7 @@ def measure(preset: str, comm, steps: int, repeats: int, t_snap: float) -> dict:
     st = State(model)
     while st.t < t_snap:
         step(model, st)
-    sliding = int(comm.allreduce(int(np.count_nonzero(model.interface.points.slip_rate > 0.0))))
+    sliding = int(comm.allreduce(int(np.count_nonzero(st.points.slip_rate > 0.0))))
     snap = Snapshot(model, st)
     step(model, snap.state())  # compile the fused kernels
 

@@ -87,7 +87,7 @@ def test_symmetric_loading_no_shear_jump(comm):
     pm = plates("coarse", comm)
     model = stuck_model(pm, v_imp=5.0, impact=("impact_lower", "impact_upper"))
     state, _ = run(model, 30e-6)
-    p = model.interface.points
+    p = state.points
     js = comm.allreduce(float(np.abs(p.jump_s).max(initial=0.0)), op=MPI.MAX)
     umax = comm.allreduce(float(np.abs(state.u.array_r).max()), op=MPI.MAX)
     assert umax > 1e-6
@@ -126,7 +126,7 @@ def test_one_rank_equals_two_ranks(comm):
         model = stuck_model(pm, v_imp=5.0)
         state, _ = run(model, 30e-6)
         keys, vals = _sorted_global(c, *_fields(model, state, pm))
-        p = model.interface.points
+        p = state.points
         x1 = np.concatenate(c.allgather(model.interface.geometry.x1))
         ts = np.concatenate(c.allgather(p.Ts))[np.argsort(x1, kind="stable")]
         runs[name] = (model.dt, keys, vals, ts)

@@ -26,7 +26,7 @@ def test_symmetric_scene_never_slides(comm):
     peak = 0.0
     peak_ts = 0.0
     for st, _ in evolve(model, state, scene.t_end):
-        p = model.interface.points
+        p = st.points
         peak = max(peak, float(p.slip_rate.max(initial=0.0)))
         peak_ts = max(peak_ts, float(np.abs(p.Ts).max(initial=0.0)))
     peak = comm.allreduce(peak, op=MPI.MAX)
@@ -40,7 +40,7 @@ def _history(model, t_end, every):
     rows = []
     for st, _ in evolve(model, state, t_end):
         if st.n % every == 0:
-            prof = interface_profile(model.interface, ("slip_rate", "shear_traction"))
+            prof = interface_profile(model.interface, st.points, ("slip_rate", "shear_traction"))
             rows.append((st.t, prof["slip_rate"], prof["shear_traction"]))
     return prof["x1"], rows
 

@@ -13,7 +13,7 @@ from mpi4py import MPI
 from fricfem import load_scene
 from fricfem.friction.povirk_needleman_integrator import _PREV_T, _PREV_V
 from fricfem.model.build import build_model
-from fricfem.step import State, step
+from fricfem.step import State, evolve, step
 from reference.two_pass import step_two_pass
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,29 +41,17 @@ def test_fused_step_equals_two_pass_step_while_sliding(comm):
     work to round-off (those sums run in another order)."""
     scene = load_scene("case1", ["loading.v_imp=10", "mesh.preset=coarse"])
     _, model = build_model(scene, comm)
-    points = model.interface.points
-    start = [a.copy() for a in points]
     every, nsteps = 25, 100
 
     ref = State(model)
-    strain_ref = []
-    for n in range(nsteps):
-        e = {} if n % every == 0 else None
-        step_two_pass(model, ref, e)
-        if e is not None:
-            strain_ref.append(e["strain"])
-    ref_points = [a.copy() for a in points]
+    strain_ref = [e["strain"] for _, e in evolve(model, ref, nsteps * model.dt, every, stepper=step_two_pass) if e]
+    ref_points = ref.points
 
-    for a, s in zip(points, start):
-        a[...] = s
     st = State(model)
-    strain = []
-    for n in range(nsteps):
-        e = {} if n % every == 0 else None
-        step(model, st, e)  # the fused sweep (model.bulk)
-        if e is not None:
-            strain.append(e["strain"])
+    strain = [e["strain"] for _, e in evolve(model, st, nsteps * model.dt, every) if e]  # the fused sweep
+    points = st.points
 
+    assert len(strain) == len(strain_ref) == nsteps // every
     assert comm.allreduce(int((points.slip > 0).sum())) > 0, "the interface should slide"
     same = np.array_equal(ref.u.array_r, st.u.array_r) and np.array_equal(ref.v.array_r, st.v.array_r)
     assert comm.allreduce(int(same), op=MPI.MIN), "u, v differ from the two-pass step"
@@ -86,23 +74,19 @@ def test_fused_rows_with_off_rank_columns(comm):
     _, model = build_model(scene, comm)
     if comm.size > 1:
         assert comm.allreduce(len(model.bulk.rows.ghost)) > 0, "the partition should cut a plate"
-    points = model.interface.points
-    start = [a.copy() for a in points]
     out = []
     for stepper in (step_two_pass, step):
-        for a, s0 in zip(points, start):
-            a[...] = s0
         st = State(model)
-        for _ in range(100):
-            stepper(model, st)
-        out.append((st.u.array_r.copy(), st.v.array_r.copy(), [a.copy() for a in points]))
+        for _ in evolve(model, st, 100 * model.dt, stepper=stepper):
+            pass
+        out.append((st.u.array_r.copy(), st.v.array_r.copy(), list(st.points)))
     (u0, v0, p0), (u1, v1, p1) = out
     same = same_bits(u0, u1) and same_bits(v0, v1) and all(same_bits(a, b) for a, b in zip(p0, p1))
     assert comm.allreduce(int(same), op=MPI.MIN)
     # Povirk-Needleman's storage ends with the rigid verb's T^{n-1}, V^{n-1/2}: the
     # elastic step leaves them NaN (no history), so the comparison above meets NaN
     assert scene.law == "povirk_needleman"
-    assert np.isnan(p1[points._fields.index("state")][:, [_PREV_T, _PREV_V]]).all()
+    assert np.isnan(p1[st.points._fields.index("state")][:, [_PREV_T, _PREV_V]]).all()
     assert comm.allreduce(float(np.abs(u1).max()), op=MPI.MAX) > 0
 
 
@@ -127,19 +111,14 @@ def test_skipping_quiet_rows_is_the_full_computation(comm):
     it does skip rows (about half of them in the first microseconds)."""
     scene = load_scene("case1", ["loading.v_imp=10", "mesh.preset=coarse", "time.end=20e-6", "output.fields=[]"])
     _, model = build_model(scene, comm)
-    points = model.interface.points
-    start = [a.copy() for a in points]
     out, skipped = {}, []
     for skip in (False, True):
-        for a, s in zip(points, start):
-            a[...] = s
         st = State(model, skip_quiet=skip)
-        while st.t < scene.t_end:
-            step(model, st)
+        for _ in evolve(model, st, scene.t_end):
             if skip:
                 skipped.append(1.0 - comm.allreduce(st.active_fraction) / comm.size)
-        out[skip] = (st.u.array_r.copy(), st.v.array_r.copy(), [a.copy() for a in points])
-    assert comm.allreduce(int((points.slip > 0).sum())) > 0, "the interface should slide"
+        out[skip] = (st.u.array_r.copy(), st.v.array_r.copy(), list(st.points))
+    assert comm.allreduce(int((st.points.slip > 0).sum())) > 0, "the interface should slide"
     assert max(skipped[:5]) > 0.4
     # rows wake and never fall asleep again, until the motion has reached them all
     assert all(a >= b for a, b in zip(skipped, skipped[1:])) and skipped[-1] < skipped[0]
@@ -147,7 +126,7 @@ def test_skipping_quiet_rows_is_the_full_computation(comm):
     u1, v1, p1 = out[True]
     assert comm.allreduce(int(np.array_equal(u0, u1) and np.array_equal(v0, v1)), op=MPI.MIN)
     for name in ("Ts", "Tn", "slip", "slip_rate"):
-        i = points._fields.index(name)
+        i = st.points._fields.index(name)
         assert rel_diff(p0[i], p1[i], comm) <= RTOL, name  # in fact 0
         assert np.array_equal(p0[i], p1[i]), name
 
@@ -158,21 +137,17 @@ def test_a_state_set_by_hand_is_woken(comm):
     result as a state that never skipped."""
     scene = load_scene("case1", ["mesh.preset=coarse", "loading.v_imp=10"])
     _, model = build_model(scene, comm)
-    points = model.interface.points
-    start = [a.copy() for a in points]
     st = State(model)
     step(model, st)
     assert st.active_fraction < 1.0
     results = []
     for skip in (True, False):
-        for a, s in zip(points, start):
-            a[...] = s
         st = State(model, skip_quiet=skip)
         st.u.array[:] = 1e-9 * np.sin(np.arange(len(st.u.array)))  # a state set by hand
         if skip:
             st.wake()
             assert st.active_fraction == 1.0
-        for _ in range(5):
-            step(model, st)
+        for _ in evolve(model, st, 5 * model.dt):
+            pass
         results.append(st.u.array_r.copy())
     assert comm.allreduce(int(np.array_equal(results[0], results[1])), op=MPI.MIN)

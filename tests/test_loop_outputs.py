@@ -13,7 +13,7 @@ import pytest
 
 from fricfem import load_scene, open_run
 from fricfem.analysis import measures
-from fricfem.monitor import FLUSH_ROWS, LOOP_PARTS
+from fricfem.observe import FLUSH_ROWS, LOOP_PARTS
 from fricfem.output.recorder import interface_profile
 from fricfem.output.quantities import QUANTITIES
 from fricfem.runner import run_scene
@@ -31,7 +31,7 @@ def test_buffered_snapshots_are_the_interface_at_their_steps(comm, tmp_dir_share
 
     def probe(st):
         if (st.n - 1) % every[0] == 0:  # a snapshot step (the monitor's rule)
-            seen[st.n] = interface_profile(run_model[0].interface, [q.name for q in QUANTITIES])
+            seen[st.n] = interface_profile(run_model[0].interface, st.points, [q.name for q in QUANTITIES])
 
     from fricfem.model.build import build_model
 
@@ -69,7 +69,7 @@ def test_station_rows_are_the_interface_at_every_step(comm, tmp_dir_shared):
     seen = []
 
     def probe(st):
-        seen.append(interface_profile(run_model[0].interface, [q.name for q in QUANTITIES]))
+        seen.append(interface_profile(run_model[0].interface, st.points, [q.name for q in QUANTITIES]))
 
     from fricfem.model.build import build_model
 
@@ -96,7 +96,7 @@ def test_station_rows_are_the_interface_at_every_step(comm, tmp_dir_shared):
                 assert np.array_equal(np.asarray(st[q.name]), want), (name, q.name)
         assert max(np.max(run.stations[n]["slip_rate"]) for n in xs) > 0  # it slid: rows not trivial
     if comm.size > 1:  # the stations lie on more than one rank
-        allx = interface_profile(run_model[0].interface, [])["x1"]
+        allx = interface_profile(run_model[0].interface, run_model[0].interface.initial, [])["x1"]
         mine = run_model[0].interface.geometry.x1
         held = sum(1 for x in xs.values() if np.any(mine == allx[np.argmin(np.abs(allx - x))]))
         assert sum(1 for h in comm.allgather(held) if h) > 1

@@ -72,7 +72,7 @@ def test_reuse_skips_mesh_assembly_and_eigenvalue(comm, monkeypatch):
     assert calls == {"mesh": 1, "eig": 1}
     assert pm_b is pm_a and mb.K is ma.K and mb.dt == ma.dt and mb.dt_crit == ma.dt_crit
     assert mb.interface is not ma.interface and mb.bulk is not ma.bulk and mb.bulk.rows is ma.bulk.rows
-    assert mb.interface.points.Tn0[0] == 2e6 and ma.interface.points.Tn0[0] == 6e6
+    assert mb.interface.initial.Tn0[0] == 2e6 and ma.interface.initial.Tn0[0] == 6e6
     assert mb.bulk.pulse.v_imp == 40.0 and ma.bulk.pulse.v_imp == 20.0  # each its own load
     # another interface stiffness is another model (λmax includes the springs): built in full
     _, ms = cache.build(stiff, comm)

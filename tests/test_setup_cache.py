@@ -182,7 +182,7 @@ def test_key_separates_models(tmp_dir_shared, comm, monkeypatch, counted):
     assert diskcache.rows_key(pm.spec, material, model.num, comm) == key
     args = (model.interface, "elastic", ("impact_lower",), False, ())
     lam = diskcache.lam_key(pm.spec, material, model.num, comm, *args)
-    iface = SimpleNamespace(points=model.interface.points._replace(Cn=model.interface.points.Cn * (1 + 1e-15)))
+    iface = SimpleNamespace(initial=model.interface.initial._replace(Cn=model.interface.initial.Cn * (1 + 1e-15)))
     assert diskcache.lam_key(pm.spec, material, model.num, comm, iface, *args[1:]) != lam
     assert diskcache.lam_key(pm.spec, material, model.num, comm, *args[:-1], ("right",)) != lam
     if comm.size > 1:  # one rank alone: its own partition and reductions

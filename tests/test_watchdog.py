@@ -14,7 +14,7 @@ from mpi4py import MPI
 from fricfem import load_scene, open_run
 from fricfem import runner
 from fricfem.model.build import build_model
-from fricfem.monitor import Spikes, energy_scale
+from fricfem.observe import Spikes, energy_scale
 from fricfem.scene import SceneError
 from fricfem.step import stepper
 
@@ -39,7 +39,7 @@ def test_a_nan_on_one_rank_stops_every_rank(comm, tmp_dir_shared, monkeypatch):
     """A NaN written into the tractions of one rank's points stops the run in the
     step it appears, on every rank, with the non-finite message."""
     def poison(model, state):
-        p = model.interface.points
+        p = state.points
         owner = comm.allreduce(comm.rank if len(p.Ts) else -1, op=MPI.MAX)
         if comm.rank == owner:
             p.Ts[len(p.Ts) // 2] = np.nan
@@ -134,21 +134,21 @@ def test_spikes_are_located_across_ranks(comm):
         vmax = comm.allreduce(float(mine.max()), op=MPI.MAX)
         seen = np.empty(5)
         look(x1, mine, np.zeros(2), np.zeros(2), seen)  # the monitor's pass: this rank's largest and its x1
-        s.observe(vmax, t, (seen[2], seen[4]))
+        s.see(vmax, t, (seen[2], seen[4]))
     r = s.report()
     assert r["peak_m_s"] == 400.0 and r["time_s"] == 3e-6 and r["x1_m"] == pytest.approx(0.02 + 0.1 * last)
     assert r["first_above"] == {"time_s": 2e-6, "x1_m": pytest.approx(0.01 + 0.1 * last)}
     assert r["steps_above"] == 2 and r["above_threshold"]
     assert "spike 400 m/s at x1 = " in s.text()
     quiet = Spikes(1e3, comm)
-    quiet.observe(5.0, 1e-6, (5.0, 0.0))
+    quiet.see(5.0, 1e-6, (5.0, 0.0))
     assert quiet.text() == "" and not quiet.report()["above_threshold"]
 
 
 def test_old_watchdog_keys_still_load():
     """Scenes written for the old watchdog (max_slip_rate as a stop, energy_factor)
     load unchanged; the closure bound is the tighter of energy_tol and energy_factor − 1."""
-    from fricfem.monitor import closure_bound
+    from fricfem.observe import closure_bound
 
     old = load_scene("rupture_sw")  # ships [watchdog] max_slip_rate = 5e4, energy_factor = 1.5
     assert old.watchdog["max_slip_rate"] == 5e4 and old.watchdog["energy_factor"] == 1.5
@@ -198,7 +198,7 @@ def test_spikes_place_ties_at_the_first_point(comm):
         seen = np.empty(5)
         look(x1, mine, np.zeros(3), np.zeros(3), seen)
         vmax = comm.allreduce(float(mine.max()), op=MPI.MAX)
-        s.observe(vmax, t, (seen[2], seen[4]))
+        s.see(vmax, t, (seen[2], seen[4]))
         if t == 2e-6:  # the tie of 150·(1 + rank) at the first and third points
             assert s.report()["x1_m"] == pytest.approx(0.01 + 0.1 * last)
     r = s.report()

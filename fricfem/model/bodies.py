@@ -296,7 +296,7 @@ def attach(num, K, mass, comm, friction_interface, spec: BodiesMesh, exp: Experi
     geom, contact_blocks = contact_pairs(num, template, mass, comm, friction_interface.geometry.right)
     n = len(geom.pairs)
     points = make_points(LAW, np.zeros((n, 0)), n, 0.0, 0.0, 0.0, 0.0)
-    contact = RigidInterface(geom, points, LAW)
+    contact = RigidInterface(geom, points, LAW, slot="contact")
     blocks = np.concatenate([_handled_blocks(num, friction_interface.geometry), contact_blocks])
     both = WithContact(friction_interface, contact, blocks, template)
     return both, Launch(exp, spec, projectile_nodes(num, spec), contact)
@@ -317,7 +317,7 @@ def launch(model, state) -> None:
     state.v.array[dofs] = v0
     state.act[b.nodes] = np.maximum(state.act[b.nodes], 1)  # kernels.bulk.ACTIVE: computed, wakes neighbours
     state.work_ext += 0.5 * dot(model.mass[dofs], np.full(len(dofs), v0 * v0))  # fixed order, not BLAS's
-    p, g = b.contact.points, b.contact.geometry
+    p, g = state.contact, b.contact.geometry
     mp, mb = g.mass[0::2], g.mass[1::2]
     loss = 0.5 * (mp * mb / (mp + mb)) * v0 * v0 / g.wq  # per unit contact length [J/m²]
     p.work[:] += loss

@@ -7,6 +7,10 @@ or from its parts.
                                 ─► struck edge (Impact) ─► λmax, dt ─► the fused step
 
 The model holds no state of a run: that is :class:`fricfem.step.state.State`.
+Its numpy arrays are read-only once built (:func:`build` marks them so; the
+PETSc work vectors of the interface and the fused step are scratch, written
+before they are read in every step), so one model serves any number of runs,
+one after another, with no reset between them.
 """
 
 from __future__ import annotations
@@ -52,7 +56,7 @@ class Impact(NamedTuple):
 
 
 class Model(NamedTuple):
-    """Everything assembled once for a run (no run state)."""
+    """Everything assembled once for a run (no run state; read-only numpy arrays)."""
 
     V: object  # dolfinx FunctionSpace (P1 vector)
     K: Stiffness  # PETSc AIJ, assembled when first used (a run needs only its vectors)
@@ -137,6 +141,7 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         area = edge_weights(num, impact_tags, dofs)
         z_force, z_damp = pulse.impedances(material.rho * material.c_l)
         impact = impact._replace(force=z_force * area, damp=z_damp * area)
+    _freeze_impact(impact)
     if like is not None:
         return like._replace(impact=impact, interface=interface, bulk=like.bulk.rebind(interface, impact))
     launch = None
@@ -153,7 +158,17 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         dt = round_down(dt_safety * dt_crit)
     bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
                      dashpots(num, tuple(absorbing), material))
-    return Model(V, K, mass, dt / mass, impact, interface, material, dt, dt_crit, comm, bulk, num, launch)
+    dt_minv = dt / mass
+    for a in (mass, dt_minv):
+        a.setflags(write=False)
+    return Model(V, K, mass, dt_minv, impact, interface, material, dt, dt_crit, comm, bulk, num, launch)
+
+
+def _freeze_impact(impact: Impact) -> None:
+    """The struck edge's arrays read-only (the model's)."""
+    for a in (impact.dofs, impact.mass, impact.force, impact.damp):
+        if isinstance(a, np.ndarray):
+            a.setflags(write=False)
 
 
 def impact_tags(scene) -> tuple:

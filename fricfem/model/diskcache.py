@@ -117,7 +117,7 @@ def rows_key(spec, material, num, comm) -> str:
 
 def lam_key(spec, material, num, comm, interface, interface_kind, impact_tags, prescribed, absorbing) -> str:
     """The key of λmax, the same on every rank (collective: one allgather of a digest)."""
-    mine = _digest(*_model_parts(spec, material, num, comm), interface.points.Cn, interface.points.Cs)
+    mine = _digest(*_model_parts(spec, material, num, comm), interface.initial.Cn, interface.initial.Cs)
     ranks = comm.allgather(mine)
     return _digest("lam", ranks, interface_kind, tuple(impact_tags), bool(prescribed), tuple(absorbing))
 

@@ -43,8 +43,15 @@ from .grid import TAGS
 #: Segments are dealt to ranks in blocks of this many, round-robin along x1.
 SEG_BLOCK = 8
 
-#: Gauss–Legendre points and weights on [-1, 1], 4 points.
-GAUSS_XI, GAUSS_W = np.polynomial.legendre.leggauss(4)
+#: Gauss–Legendre points and weights on [-1, 1], 4 points, as fixed numbers: what
+#: ``np.polynomial.legendre.leggauss(4)`` gives with numpy <= 2.2 (the points are the
+#: exact values rounded; the weights 3 ulp from (18 ∓ √30)/36).  leggauss takes them
+#: from LAPACK's eigenvalues and numpy 2.3 (the dolfinx 0.11 wheel's) gives weights
+#: 2 ulp away, which the sliding front made O(1) differences of (tests/test_stack_bits.py).
+GAUSS_XI = np.array([float.fromhex(h) for h in ("-0x1.b8e6dbcf63985p-1", "-0x1.5c23fd9dd3dfcp-2",
+                                                 "0x1.5c23fd9dd3dfcp-2", "0x1.b8e6dbcf63985p-1")])
+GAUSS_W = np.array([float.fromhex(h) for h in ("0x1.64340f7e7b668p-2", "0x1.4de5f840c24cbp-1",
+                                               "0x1.4de5f840c24cbp-1", "0x1.64340f7e7b668p-2")])
 
 
 class Geometry(NamedTuple):
@@ -159,6 +166,10 @@ def build_geometry(num, template: PETSc.Vec, comm) -> Geometry:
 class Points(NamedTuple):
     """Per-Gauss-point interface data on this rank (SI units; all float64[n] unless noted).
 
+    The model keeps the initial points, read-only (:meth:`frozen`); each run's
+    state has its own (:meth:`fresh`: the constants Tn0 .. param_index shared,
+    the evolving arrays state .. nsub its own), which the step updates in place.
+
     Tn0, Ts0      initial normal / shear traction [Pa] (Σ0 and the initial shear)
     Cn, Cs        interface stiffnesses [Pa/m]
     param_rows    float64[k, n_params]  the distinct friction-law parameter sets
@@ -211,6 +222,33 @@ class Points(NamedTuple):
     def kernel_state(self) -> tuple:
         """The evolving part (state .. nsub) as the kernel's plain tuple of the same arrays."""
         return tuple(self[6:])
+
+    @property
+    def evolving(self) -> tuple:
+        """The names of the fields a step changes (:data:`EVOLVING`)."""
+        return self._fields[6:]
+
+    def frozen(self) -> "Points":
+        """These points as a model keeps them: every array read-only (the constants,
+        and the evolving arrays' initial values, which each run copies: :meth:`fresh`),
+        but ``param_rows``: the law's ``p``, which a law must not write (its contract)
+        and a user's law that does is stopped for with one message
+        (:class:`fricfem.observe.LawWatch`); numba would refuse a read-only ``p``
+        while compiling such a law, with a traceback of its own."""
+        for name, a in zip(self._fields, self):
+            if name != "param_rows":
+                a.setflags(write=False)
+        return self
+
+    def fresh(self) -> "Points":
+        """A run's own points: the constants shared (read-only), the evolving arrays
+        (:data:`EVOLVING`) copied from these, writeable."""
+        return self._replace(**{k: np.array(getattr(self, k)) for k in EVOLVING})
+
+
+#: the fields of :class:`Points` a step changes (a run's, :class:`fricfem.step.state.State`);
+#: the others are the model's constants
+EVOLVING = Points._fields[6:]
 
 
 def make_points(law, params, n, Tn0, Ts0, Cn, Cs, state_Ts0=None) -> Points:

@@ -10,12 +10,15 @@ same.  :func:`model_key` is the part of a scene that defines those;
 scene of the key with ``build_model(scene, comm, like=...)``, which makes only
 the new points, law and load.
 
-Exact by construction: the points, the load and every array a run mutates
-are made afresh for each scene (:class:`fricfem.step.State` as always), the
-shared parts are never written by a run (the scatters' work vectors are
-scratch, overwritten before being read in every step), and λmax depends only
-on the key (K, the mass and the interface springs C_n, C_s).  A reused model
-gives the same bits as a fresh one (``tests/test_model_reuse.py``).
+Exact by construction: a model is read-only once built (its numpy arrays are
+marked so; the scatters' work vectors are scratch, overwritten before being
+read in every step) and everything a run changes is its
+:class:`fricfem.step.State`, so nothing is reset between runs: a scene of the
+same key gets the shared parts as they are, with its own interface points'
+constants, law and load, and λmax depends only on the key (K, the mass and
+the interface springs C_n, C_s).  A reused model gives the same bits as a
+fresh one (``tests/test_model_reuse.py``), and a model stepped by any number
+of runs keeps its bits (``tests/test_state.py``).
 
     cache = ModelCache()
     for scene in scenes:                          # same communicator, one run at a time

@@ -85,7 +85,7 @@ class LineGauges:
         extra = ()
         b = self.model.bodies
         if b is not None:
-            p, geo = b.contact.points, b.contact.geometry
+            p, geo = state.contact, b.contact.geometry
             extra = (dot(self.m, state.v.array_r[self.dofs]), self.m.sum(), dot(p.Tn, geo.wq))  # not BLAS's order
         nodal = self.nodal.gather(state, extra)
         if nodal is None:

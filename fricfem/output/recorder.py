@@ -3,7 +3,7 @@ energies (the format: :mod:`.quantities`).  Rank 0 writes; the others send.
 
 Off the step's path.  A snapshot only copies this rank's interface values into
 a local buffer, a station row is one numba call into another; a flush (every
-:data:`fricfem.monitor.FLUSH_ROWS` snapshots, or by wall time) gathers the
+:data:`fricfem.observe.FLUSH_ROWS` snapshots, or by wall time) gathers the
 buffered rows to rank 0 in one message and writes each dataset's new rows with
 one system call (:class:`RawRows`).  ``summary.json``'s ``loop_cost`` gives
 what each part costs per step.
@@ -79,8 +79,9 @@ class Recorder:
     system) is a :class:`~.directory.RunDirError` naming the path on every rank.
     """
 
-    def __init__(self, path: Path, scene, model, speeds: dict, rows: dict):
+    def __init__(self, path: Path, scene, model, speeds: dict, rows: dict, points):
         self.itf = model.interface
+        self.points = points  # the run's interface points (fricfem.step.State.points), updated in place
         self.comm = model.comm
         self.law = self.itf.law
         self.path = Path(path)
@@ -184,7 +185,7 @@ class Recorder:
         communication: :meth:`flush` gathers the buffered rows to rank 0 in one message)."""
         if self.n_block == len(self.block):  # more rows than usual between two flushes
             self.block = np.concatenate([self.block, np.empty_like(self.block)])
-        p, row = self.itf.points, self.block[self.n_block]
+        p, row = self.points, self.block[self.n_block]
         for k, q in enumerate(QUANTITIES):
             row[k] = q.read(p)
         for k in range(len(self.law.state)):
@@ -224,7 +225,7 @@ class Recorder:
         self.st_owned = [name for name, (_, q) in self.stations.items() if q >= 0]
         self.st_index = np.array([self.stations[name][1] for name in self.st_owned], dtype=np.int64)
         attrs = [q.attr for q in QUANTITIES if q.attr]
-        points = self.itf.points  # its arrays are updated in place for the whole run
+        points = self.points  # its arrays are updated in place for the whole run
         self.st_float = tuple(a for a in attrs if getattr(points, a).dtype == np.float64)
         self.st_other = tuple(a for a in attrs if a not in self.st_float)  # is_open (int8)
         self.st_columns = (tuple(getattr(points, a) for a in self.st_float),
@@ -535,14 +536,14 @@ def h5_error(err: Exception, path) -> OSError:
     return OSError(errno, reason, str(path))
 
 
-def interface_profile(interface, names=("slip_rate", "shear_traction")) -> dict:
-    """All ranks' interface points now, sorted by x1: ``{"x1": ..., name: ...}``
-    for quantities of :data:`.quantities.QUANTITIES` and the law's state
-    variables (collective)."""
+def interface_profile(interface, points, names=("slip_rate", "shear_traction")) -> dict:
+    """All ranks' interface ``points`` (a state's, ``state.points``) now, sorted by x1:
+    ``{"x1": ..., name: ...}`` for quantities of :data:`.quantities.QUANTITIES` and
+    the law's state variables (collective)."""
     from .quantities import BY_NAME
 
     comm = interface.geometry.comm
-    p = interface.points
+    p = points
     x1 = np.concatenate(comm.allgather(interface.geometry.x1))
     order = np.argsort(x1, kind="stable")
     out = {"x1": x1[order]}

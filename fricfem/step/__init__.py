@@ -2,6 +2,6 @@
 ``step`` and ``evolve``."""
 
 from .state import State
-from .stepper import evolve, step
+from .stepper import Reduction, Timing, evolve, n_steps, run, step
 
-__all__ = ["State", "evolve", "step"]
+__all__ = ["Reduction", "State", "Timing", "evolve", "n_steps", "run", "step"]

@@ -230,6 +230,9 @@ class FusedBulk:
             self.ku_dofs = (2 * self.special.node[k][:, None] + np.arange(2)[None, :]).ravel()
             self.ku_from = (2 * k[:, None] + np.arange(2)[None, :]).ravel()
         self.no_force = np.zeros(2 * self.n_nodes)  # the left / right forces without an interface
+        for a in (*self.rows, *self.special, *self.edge, self.dt_minv, self.damping, self.damped_nodes,
+                  self.impact_dofs, self.no_force):
+            a.setflags(write=False)  # the model's: a step only reads them
         self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
         self._special = tuple(self.special)
         self.ghost_scatter = None
@@ -256,6 +259,8 @@ class FusedBulk:
         new.interface = interface
         new.pulse = impact.pulse
         new.edge = _edge(impact)
+        for a in new.edge:
+            a.setflags(write=False)
         return new
 
     def activity(self, at_rest: bool) -> np.ndarray:
@@ -307,7 +312,7 @@ class FusedBulk:
             if self.ku is not None:
                 self.ku.array[self.ku_dofs] = self.sp_ku[self.ku_from]
             # −F_int(u^n), left and right parts
-            gl, gr = self.interface.advance(u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
+            gl, gr = self.interface.advance(state, u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
         t4 = time.perf_counter()
         uku_d, work_d, absorbed_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va,
                                                         self.dt_minv, gl, gr, imp_prev, imp_react, absorb, act,

@@ -16,24 +16,47 @@ from ..kernels.interface import first_call, kernel_for, rigid_kernel_for, spring
 from ..kernels.reduce import dot
 
 
+def freeze(data, keep=()):
+    """Mark ``data`` (an array, or a NamedTuple's numpy arrays but those named in
+    ``keep``) read-only: the model's arrays a step only reads.  Returns ``data``."""
+    if isinstance(data, np.ndarray):
+        data.setflags(write=False)
+        return data
+    for name, a in zip(data._fields, data):
+        if isinstance(a, np.ndarray) and name not in keep:
+            a.setflags(write=False)
+    return data
+
 
 class Interface:
-    """Interface geometry, point data and the friction law, with the verbs the
-    time loop needs: :meth:`begin_gather`, :meth:`advance` (and its two-pass
-    form :meth:`add_forces`), :meth:`add_spring_action` and :meth:`energy`."""
+    """Interface geometry, the initial point data and the friction law, with the
+    verbs the time loop needs: :meth:`begin_gather`, :meth:`advance` (and its
+    two-pass form :meth:`add_forces`), :meth:`add_spring_action` and :meth:`energy`.
 
-    def __init__(self, geometry, points, law):
+    Part of the model, so read-only in a run: the points a step changes are the
+    state's (``state.points``, or the state's attribute named :attr:`slot`; made
+    by :meth:`fresh_points`); :attr:`initial` holds their constants and initial
+    values, every array read-only.  The PETSc work vectors of the geometry are
+    scratch, written before they are read in every step."""
+
+    def __init__(self, geometry, points, law, slot: str = "points"):
         """``geometry`` and ``points``: :mod:`fricfem.model.interface` (Geometry, Points);
-        ``law``: a :class:`fricfem.friction.Law`."""
+        ``law``: a :class:`fricfem.friction.Law`; ``slot``: the attribute of a
+        :class:`fricfem.step.state.State` that holds this interface's points."""
         self.geometry = geometry
-        self.points = points
+        self.initial = points.frozen()
         self.law = law
+        self.slot = slot
         ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.kernel = kernel_for(law)
         self._compiled = False  # the kernel's first call compiles (or loads) it
-        self._geom = (np.hstack([geometry.seg_w, geometry.seg_f]), geometry.shape, geometry.wq)  # plain tuples
-        self._const = points.kernel_const()
-        self._state = points.kernel_state()
+        freeze(geometry)
+        self._geom = (freeze(np.hstack([geometry.seg_w, geometry.seg_f])), geometry.shape, geometry.wq)  # plain tuples
+        self._const = self.initial.kernel_const()
+
+    def fresh_points(self) -> dict:
+        """A run's own points, by the state's attribute: ``{slot: Points}``."""
+        return {self.slot: self.initial.fresh()}
 
     def _gather(self, u: PETSc.Vec) -> np.ndarray:
         g = self.geometry
@@ -57,8 +80,8 @@ class Interface:
 
     needs_ku = False  # the elastic interface needs only the displacements
 
-    def advance(self, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None, v_edge=0.0) -> tuple:
-        """Advance every interface point to the end of the step whose end
+    def advance(self, state, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None, v_edge=0.0) -> tuple:
+        """Advance every interface point of ``state`` to the end of the step whose end
         displacement is ``u``; returns the owned arrays (left, right) of the
         *negative* interface forces at each node from the segment on its left
         and on its right (a node's force is ``left + right``, in that order).
@@ -69,33 +92,34 @@ class Interface:
             w = g.work.array
         else:
             w = self._gather(u)
+        pts = getattr(state, self.slot).kernel_state()
         if self._compiled:
-            self.kernel(w, g.force.array, self._geom, self._const, self._state, dt)
+            self.kernel(w, g.force.array, self._geom, self._const, pts, dt)
         else:  # compiles or loads the law's kernel; numba's cache warning caught there
-            first_call(self.kernel, w, g.force.array, self._geom, self._const, self._state, dt)
+            first_call(self.kernel, w, g.force.array, self._geom, self._const, pts, dt)
             self._compiled = True
         self._send()
         return g.left.array_r, g.right.array_r
 
-    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None) -> None:
+    def add_forces(self, state, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None) -> None:
         """:meth:`advance`, then ``f += left`` and ``f += right`` (the two-pass form;
         ``f`` holds K u)."""
-        self.advance(u, dt, v=v, ku=f)
+        self.advance(state, u, dt, v=v, ku=f)
         f.axpy(1.0, self.geometry.left)
         f.axpy(1.0, self.geometry.right)
 
     def add_spring_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """``y += K_int x`` with the elastic interface springs."""
-        g, p = self.geometry, self.points
+        g, p = self.geometry, self.initial
         w = self._gather(x)
         spring_kernel(w, g.force.array, self._geom, p.Cn, p.Cs)
         self._send()
         y.axpy(1.0, g.left)
         y.axpy(1.0, g.right)
 
-    def energy(self) -> dict:
-        """Interface energies per unit thickness [J/m], summed over all ranks."""
-        p, g = self.points, self.geometry
+    def energy(self, state) -> dict:
+        """Interface energies per unit thickness [J/m] of ``state``, summed over all ranks."""
+        p, g = getattr(state, self.slot), self.geometry
         closed = p.is_open == 0
         elastic = np.where(closed, 0.5 * p.Cn * p.jump_n**2, 0.0)
         elastic += np.where(p.Cs > 0, 0.5 * (p.Ts - p.Ts0) ** 2 / np.where(p.Cs > 0, p.Cs, 1.0), 0.0)
@@ -114,24 +138,30 @@ class RigidInterface:
 
     needs_ku = True  # the pairs' trial velocities need K u at their nodes
 
-    def __init__(self, geometry, points, law):
+    def __init__(self, geometry, points, law, slot: str = "points"):
         ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.geometry = geometry
-        self.points = points
+        self.initial = points.frozen()
         self.law = law
+        self.slot = slot
         self.kernel = rigid_kernel_for(law)
-        self._pgeom = (geometry.mass, geometry.wq, geometry.edge)
-        self._const = points.kernel_const()
-        self._state = points.kernel_state()
+        freeze(geometry, keep=("edge",))
+        self._pgeom = (geometry.mass, geometry.wq, geometry.edge)  # edge[-1]: scratch, this step's v_edge
+        self._const = self.initial.kernel_const()
         self._compiled = False
+
+    def fresh_points(self) -> dict:
+        """A run's own points (pairs), by the state's attribute: ``{slot: Points}``."""
+        return {self.slot: self.initial.fresh()}
 
     def begin_gather(self, u: PETSc.Vec) -> None:
         """Start gathering the pairs' displacements; :meth:`advance` ends it."""
         g = self.geometry
         g.scatter.begin(u, g.work_u, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
 
-    def advance(self, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None, v_edge: float = 0.0) -> tuple:
-        """Advance every pair over the step from u^n, v^{n−½} and ``ku`` = K u^n
+    def advance(self, state, u: PETSc.Vec, dt: float, started: bool = False, v=None, ku=None,
+                v_edge: float = 0.0) -> tuple:
+        """Advance every pair of ``state`` over the step from u^n, v^{n−½} and ``ku`` = K u^n
         (at least at the interface nodes), the struck edge moving at ``v_edge``
         along x1 over the step; returns the owned arrays (left, right) of the
         negative nodal forces (right is zero: one pair a node).  Collective."""
@@ -145,7 +175,7 @@ class RigidInterface:
         g.scatter.scatter(v, g.work_v, insert, forward)
         g.scatter.scatter(ku, g.work_k, insert, forward)
         args = (g.work_u.array, g.work_v.array, g.work_k.array, g.force.array, self._pgeom, self._const,
-                self._state, dt)
+                getattr(state, self.slot).kernel_state(), dt)
         if self._compiled:
             self.kernel(*args)
         else:
@@ -154,18 +184,18 @@ class RigidInterface:
         g.to_left.scatter(g.force, g.left, insert, forward)
         return g.left.array_r, g.right.array_r
 
-    def add_forces(self, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None, v_edge: float = 0.0) -> None:
+    def add_forces(self, state, u: PETSc.Vec, f: PETSc.Vec, dt: float, v=None, v_edge: float = 0.0) -> None:
         """:meth:`advance` with ``f`` = K u, then ``f += left`` (the two-pass form)."""
-        self.advance(u, dt, v=v, ku=f, v_edge=v_edge)
+        self.advance(state, u, dt, v=v, ku=f, v_edge=v_edge)
         f.axpy(1.0, self.geometry.left)
 
     def add_spring_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """No interface spring: nothing to add (the stable step is the bulk's)."""
 
-    def energy(self) -> dict:
-        """Interface energies per unit thickness [J/m], summed over all ranks
+    def energy(self, state) -> dict:
+        """Interface energies per unit thickness [J/m] of ``state``, summed over all ranks
         (a rigid contact stores none)."""
-        p, g = self.points, self.geometry
+        p, g = getattr(state, self.slot), self.geometry
         loc = np.array([dot(g.wq, p.work), 0.0, dot(g.wq, p.dissipated)])  # fixed order, not BLAS
         tot = np.zeros(3)
         g.comm.Allreduce(loc, tot, op=MPI.SUM)

@@ -14,6 +14,7 @@ generator, so that output stays apart from stepping.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from mpi4py import MPI
@@ -37,7 +38,7 @@ def step(model, state, energy: dict | None = None) -> None:
         loc = np.array([kinetic, state.work_ext, 0.5 * uku, state.absorbed])
         tot = np.zeros(4)
         model.comm.Allreduce(loc, tot, op=MPI.SUM)
-        energy.update(model.interface.energy())
+        energy.update(model.interface.energy(state))
         energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1], absorbed=tot[3])
         energy["balance_error"] = (
             energy["kinetic"] + energy["strain"] + energy["interface_work"] + energy["absorbed"]
@@ -48,11 +49,175 @@ def step(model, state, energy: dict | None = None) -> None:
     state.n += 1
 
 
-def evolve(model, state, t_end: float, energy_every: int = 0):
-    """Step until ``t_end`` [s]; yields ``(state, energy or None)`` after every
-    step, the energies every ``energy_every`` steps (0: never)."""
-    n_end = int(math.floor(t_end / model.dt + 1e-9))
+def n_steps(model, t_end: float) -> int:
+    """The number of steps from t = 0 to ``t_end`` [s] (the last whole step)."""
+    return int(math.floor(t_end / model.dt + 1e-9))
+
+
+class Reduction:
+    """The loop's one collective of a step: a MAX-Allreduce of named slots.
+
+    Observers that need a value over all ranks take a slot by name once, before
+    the loop (:meth:`slot`: its index), write this rank's value into
+    :attr:`local` in their :meth:`contribute`, and read the result in
+    :attr:`glob` in their :meth:`observe` (one reduction, however many
+    observers; none without slots).  A slot's value is reset to −inf before
+    every step's contributions."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.names: list = []
+        self.local = np.zeros(0)
+        self.glob = np.zeros(0)
+
+    def slot(self, name: str) -> int:
+        """The index of the new slot ``name`` (a name is taken once)."""
+        if name in self.names:
+            raise ValueError(f"Reduction: the slot {name!r} is taken")
+        self.names.append(name)
+        self.local = np.full(len(self.names), -np.inf)
+        self.glob = np.full(len(self.names), -np.inf)
+        return len(self.names) - 1
+
+    def reduce(self) -> None:
+        """Every rank's slots to :attr:`glob` (their maximum; collective)."""
+        self.comm.Allreduce(self.local, self.glob, op=MPI.MAX)
+
+    def __getitem__(self, name: str) -> float:
+        """The value of slot ``name`` over all ranks after the last :meth:`reduce`."""
+        return float(self.glob[self.names.index(name)])
+
+
+class Timing:
+    """The loop's wall-clock times [s], by part: ``step`` and ``step_with_energy``
+    (a step that also took the energies; counted in :attr:`energy_steps`), and
+    each observer's :attr:`part` (the reduction is booked to ``watch``).  The
+    first step (the kernels' compilation or cache load) is timed alone
+    (:attr:`first_step_s`) and the parts from the second step on;
+    :attr:`observers_s` is every observer's time, the first step's included."""
+
+    def __init__(self, parts=("step", "step_with_energy")):
+        self.cost = dict.fromkeys(parts, 0.0)
+        self.first_step_s = None
+        self.energy_steps = 0
+        self.observers_s = 0.0
+        self.t0 = None  # when the loop started
+        self.wall = 0.0  # the loop's wall time so far
+
+    def first_done(self, state, now: float) -> None:
+        """After the first step: its time apart, the parts from zero."""
+        self.first_step_s = now - self.t0
+        self.cost.update(dict.fromkeys(self.cost, 0.0))
+        state.seconds.update(dict.fromkeys(state.seconds, 0.0))
+        self.energy_steps = 0
+
+
+def evolve(model, state, t_end: float, energy_every: int = 0, observers=(), *, timing: Timing | None = None,
+           end_energy: bool = False, stepper=None):
+    """The time loop: step ``state`` until ``t_end`` [s] or until an observer says
+    stop; yields ``(state, energy or None)`` after every step and its observers,
+    the energies at t^n of the step every ``energy_every`` steps (0: never) and,
+    with ``end_energy``, in the last step too (the last time they can be had).
+    Its return value (``StopIteration.value``; :func:`run`) is why it stopped:
+    the first stop reason of the observers in their order, or None (``t_end``).
+
+    Each observer has ``observe(state, energy) -> stop reason or None`` (after
+    every step; ``energy`` as yielded) and may have ``slots`` (names) with
+    ``bind(reduction)`` and ``contribute(state, energy)``: the loop makes one
+    :class:`Reduction` of every observer's slots, binds it before the first
+    step and, after each step, has the contributors fill it and reduces it
+    once, before any observer observes.  ``part``: the name the observer's
+    time is booked under in ``timing`` (:class:`Timing`).  Nothing is done
+    about an observer's outputs here: whoever made the observers finishes them.
+
+    ``stepper``: the step (default :func:`step`, looked up at the call; tests
+    pass the two-pass reference)."""
+    stepper = step if stepper is None else stepper
+    n_end = n_steps(model, t_end)
+    reduction = Reduction(model.comm)
+    contributors = []
+    for o in observers:
+        if getattr(o, "slots", ()):
+            o.bind(reduction)
+            contributors.append(o)
+    reduce = reduction.reduce if reduction.names else None
+    if timing is None:
+        return (yield from _plain(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce,
+                                  observers))
+    return (yield from _timed(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce,
+                              observers, timing))
+
+
+def _plain(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce, observers):
+    """:func:`evolve` without timing."""
     while state.n < n_end:
-        e = {} if energy_every and state.n % energy_every == 0 else None
-        step(model, state, e)
+        e = {} if (energy_every and state.n % energy_every == 0) or (end_energy and state.n == n_end - 1) else None
+        stepper(model, state, e)
+        for o in contributors:
+            o.contribute(state, e)
+        if reduce is not None:
+            reduce()
+        stop = None
+        for o in observers:
+            why = o.observe(state, e)
+            if stop is None:
+                stop = why
         yield state, e
+        if stop is not None:
+            return stop
+    return None
+
+
+def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce, observers, timing):
+    """:func:`evolve` with each part's wall time booked in ``timing``."""
+    clock, cost = time.perf_counter, timing.cost
+    parts = [getattr(o, "part", "other") for o in observers]
+    feeds = [getattr(o, "part", "other") for o in contributors]
+    for name in set(parts) | set(feeds) | {"watch"}:
+        cost.setdefault(name, 0.0)
+    timing.t0 = clock()
+    while state.n < n_end:
+        e = {} if (energy_every and state.n % energy_every == 0) or (end_energy and state.n == n_end - 1) else None
+        t0 = clock()
+        stepper(model, state, e)
+        t1 = ts = clock()
+        if e is None:
+            cost["step"] += t1 - t0
+        else:
+            cost["step_with_energy"] += t1 - t0
+            timing.energy_steps += 1
+        for o, part in zip(contributors, feeds):
+            o.contribute(state, e)
+            t2 = clock()
+            cost[part] += t2 - t1
+            t1 = t2
+        if reduce is not None:
+            reduce()
+            t2 = clock()
+            cost["watch"] += t2 - t1
+            t1 = t2
+        stop = None
+        for o, part in zip(observers, parts):
+            why = o.observe(state, e)
+            t2 = clock()
+            cost[part] += t2 - t1
+            t1 = t2
+            if stop is None:
+                stop = why
+        timing.observers_s += t1 - ts
+        timing.wall = t1 - timing.t0
+        if timing.first_step_s is None:
+            timing.first_done(state, t1)
+        yield state, e
+        if stop is not None:
+            return stop
+    return None
+
+
+def run(loop):
+    """Drain :func:`evolve`'s generator ``loop``; returns why it stopped (None: the end time)."""
+    while True:
+        try:
+            next(loop)
+        except StopIteration as done:
+            return done.value

@@ -55,6 +55,19 @@ def canonical_product(model, u, f) -> None:
     fa[1::2] = s1
 
 
+_SCRATCH: dict = {}  # id(model's K) -> (K, f): the two-pass step's own work vector
+
+
+def _scratch(model):
+    """The work vector ``f`` of the two-pass step for ``model`` (made once)."""
+    held = _SCRATCH.get(id(model.K))
+    if held is None or held[0] is not model.K:
+        held = (model.K, model.K.createVecRight())
+        _SCRATCH.clear()  # one model at a time: a test's model goes with the next
+        _SCRATCH[id(model.K)] = held
+    return held[1]
+
+
 def step_two_pass(model, state, energy: dict | None = None, timers: dict | None = None) -> None:
     """The step as two passes, f = K u − F_int (PETSc) then the update: the reference
     for :func:`fricfem.step.step`, and the one with phase timers.  If ``timers`` is a dict, the
@@ -62,7 +75,7 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
     scatter-add) and ``update`` (leapfrog pass, struck edge, work) are added to it."""
     dt = model.dt
     imp = model.impact
-    u, v, f = state.u, state.v, state.f
+    u, v, f = state.u, state.v, _scratch(model)
     if timers is not None:
         t0 = time.perf_counter()
     canonical_product(model, u, f)  # f = K u^n
@@ -71,7 +84,7 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
         v_old = v.array_r.copy()
     if timers is not None:
         t1 = time.perf_counter()
-    model.interface.add_forces(u, f, dt)  # f = K u^n − F_int(u^n)
+    model.interface.add_forces(state, u, f, dt)  # f = K u^n − F_int(u^n)
     if timers is not None:
         t2 = time.perf_counter()
     fa = f.array_r
@@ -108,7 +121,7 @@ def step_two_pass(model, state, energy: dict | None = None, timers: dict | None 
         loc = np.array([kinetic, state.work_ext])
         tot = np.zeros(2)
         model.comm.Allreduce(loc, tot, op=MPI.SUM)
-        energy.update(model.interface.energy())
+        energy.update(model.interface.energy(state))
         energy.update(time=state.t, kinetic=tot[0], strain=strain, external=tot[1])
         energy["balance_error"] = (
             energy["kinetic"] + energy["strain"] + energy["interface_work"] - energy["external"]

@@ -1,56 +1,66 @@
-"""What a run watches every step: the leading tip and the initiation of
-sliding, the outputs due (stations, snapshots, energies, fields, flushes),
-divergence (the watchdog), and its progress on the terminal.
+"""What a run watches at every step to know whether to go on: the interface
+points seen in one pass (:class:`Look`), divergence (:class:`Watchdog`, with a
+user's law's contract, :class:`LawWatch`), the largest slip rate (:class:`Spikes`,
+reported, never a stop), the leading tip and the first sliding (:class:`Tip`),
+and SIGTERM / SIGINT (:class:`Signals`).
 
-All of it is bookkeeping around :func:`fricfem.step.evolve`; nothing here
-changes the physics.
+Observers of :func:`fricfem.step.evolve` (the contract: :mod:`fricfem.observe`).
+Their global values come from the loop's one reduction a step, in named slots
+(:class:`fricfem.step.Reduction`); nothing here changes the physics.
 """
 
 from __future__ import annotations
 
-import sys
-import time
+import signal
+import threading
 
 import numpy as np
 from mpi4py import MPI
 
-from .kernels.watch import look
-from .scene.output_keys import frame_times
-from .scene.validate import field_steps
+from ..kernels.watch import look
 
 
-class Progress:
-    """A progress bar with ETA on stderr (rank 0): redrawn every half second on a
-    terminal, one line per 10 % otherwise (logs, CI)."""
+def spike_threshold(scene) -> float:
+    """The slip rate above which a spike is reported [m/s]: ``watchdog.max_slip_rate``,
+    or the material's c_l when it is 0 (the default)."""
+    return scene.watchdog["max_slip_rate"] or scene.material.c_l
 
-    def __init__(self, t_end: float, enabled: bool):
-        self.t_end = t_end
-        self.enabled = enabled
-        self.tty = sys.stderr.isatty()
-        self.start = time.perf_counter()
-        self.last = 0.0
-        self.decile = -1
 
-    def update(self, t: float, extra: str = "", force: bool = False) -> None:
-        now = time.perf_counter()
-        if not self.enabled or (now - self.last < 0.5 and not force):
-            return
-        decile = int(10 * min(1.0, t / self.t_end))
-        if not self.tty and decile == self.decile and not force:
-            return
-        self.decile = decile
-        self.last = now
-        frac = min(1.0, t / self.t_end)
-        eta = (now - self.start) * (1 - frac) / frac if frac > 0 else float("nan")
-        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        head, tail = ("\r", "") if self.tty else ("", "\n")
-        sys.stderr.write(f"{head}[{bar}] {100 * frac:5.1f}%  t = {t * 1e6:7.2f} / {self.t_end * 1e6:.2f} µs"
-                         f"  ETA {eta:6.1f} s  {extra}   {tail}")
-        sys.stderr.flush()
+class Look:
+    """This rank's interface points after a step, in one pass
+    (:func:`fricfem.kernels.watch.look`): :attr:`seen` (the tip, minus the first
+    sliding, the largest slip rate, non-finite?, the x1 of the largest), and over
+    all ranks (slots ``tip``, ``first``, ``vmax``): :attr:`tip` (the largest x1
+    sliding, −1: none), :attr:`first` (minus the smallest) and :attr:`vmax`.
+    The observers after it read these."""
 
-    def close(self) -> None:
-        if self.enabled and self.tty:
-            sys.stderr.write("\n")
+    slots = ("tip", "first", "vmax")
+    part = "watch"
+
+    def __init__(self, x1: np.ndarray):
+        self.x1 = x1
+        self.seen = np.empty(5)
+        self.tip, self.first, self.vmax = -1.0, -np.inf, 0.0
+
+    def bind(self, reduction) -> None:
+        self.red = reduction
+        self.i = [reduction.slot(name) for name in self.slots]
+
+    def contribute(self, state, energy) -> None:
+        p, seen, (i_tip, i_first, i_vmax) = state.points, self.seen, self.i
+        look(self.x1, p.slip_rate, p.Ts, p.Tn, seen)
+        local = self.red.local
+        local[i_tip], local[i_first], local[i_vmax] = seen[0], seen[1], seen[2]
+
+    def observe(self, state, energy) -> None:
+        glob, (i_tip, i_first, i_vmax) = self.red.glob, self.i
+        self.tip, self.first, self.vmax = glob[i_tip], glob[i_first], glob[i_vmax]
+
+    def snapshot(self) -> dict:
+        return {"tip": float(self.tip), "first": float(self.first), "vmax": float(self.vmax)}
+
+    def restore(self, d: dict) -> None:
+        self.tip, self.first, self.vmax = d["tip"], d["first"], d["vmax"]
 
 
 #: watchdog codes -> what they mean.  Each is a divergence, and only these stop a run:
@@ -88,8 +98,8 @@ class LawWatch:
     do, breaks it.  :meth:`code` returns 0 or a
     code of :data:`_LAW`.  Built-in laws are not watched (the suite checks them)."""
 
-    def __init__(self, interface):
-        self.p = interface.points
+    def __init__(self, interface, points):
+        self.p = points  # the run's points (fricfem.step.State.points), updated in place
         self.wq = interface.geometry.wq
         self.rigid = type(interface).__name__ == "RigidInterface"  # no interface spring: nothing stored
         self.params0 = self.p.param_rows.copy()
@@ -119,6 +129,15 @@ class LawWatch:
             if self.breaches >= 2:
                 return 15
         return 0
+
+    def snapshot(self) -> dict:
+        """Its accumulators: ``breaches`` and this rank's per-point arrays (copies)."""
+        return {"breaches": self.breaches, "d_last": self.d_last.copy(), "slip_last": self.slip_last.copy(),
+                "signed": self.signed.copy()}
+
+    def restore(self, d: dict) -> None:
+        self.breaches = int(d["breaches"] or 0)
+        self.d_last[:], self.slip_last[:], self.signed[:] = d["d_last"], d["slip_last"], d["signed"]
 
     def budget_error(self) -> float:
         """|W − E_el − D + Σ w T_s0 s| / Σ w (|W| + E_el + |D| + |T_s0 s|) over this rank's
@@ -163,7 +182,7 @@ def closure_bound(limits: dict) -> float:
 def watchdog_code(finite: bool, energy, limits: dict) -> int:
     """0 if the step looks sane, else a code of :data:`_WATCH` (local, no communication).
     ``finite``: whether this rank's interface tractions and slip rates are all
-    finite (the monitor's one pass, :func:`fricfem.kernels.watch.look`).
+    finite (:class:`Look`'s one pass, :func:`fricfem.kernels.watch.look`).
 
     Every step: finite interface tractions and slip rates.  At energy steps
     (``output.energy_every``), with ε = :func:`closure_bound` and E the
@@ -182,7 +201,7 @@ def watchdog_code(finite: bool, energy, limits: dict) -> int:
 
     Codes 1–3 are a divergence whatever ``watchdog.enabled`` says (no such state
     is a result); with the watchdog disabled the run goes on to its end but is
-    marked diverged, never complete (:attr:`Monitor.diverged`).  The budget's
+    marked diverged, never complete (:attr:`Watchdog.diverged`).  The budget's
     closure (4) is checked only with the watchdog enabled.
 
     A large slip rate is *not* a divergence: the Povirk–Needleman point's slip
@@ -227,23 +246,42 @@ class Spikes:
     reported in summary.json (``slip_rate_spike``) and on the progress line,
     never a stop (docs/model.md, "The watchdog").
 
-    :meth:`observe` takes the step's largest slip rate over all ranks (from the
-    monitor's reduction) and this rank's own with its place; it reduces once
+    :meth:`see` takes the step's largest slip rate over all ranks (from the
+    loop's reduction) and this rank's own with its place; it reduces once
     more, to find the place, only in a step that sets a new peak (all ranks know
-    it: collective).
+    it: collective).  As an observer (``look`` given: :class:`Look`), it sees
+    each step's.
     """
 
-    def __init__(self, threshold: float, comm):
+    part = "watch"
+
+    def __init__(self, threshold: float, comm, look=None):
         self.threshold = float(threshold)
         self.comm = comm
+        self.look = look
         self.peak, self.x1, self.time = 0.0, None, None
         self.first = None  # (time, x1) of the first slip rate above the threshold
         self.steps_above = 0
 
-    def observe(self, vmax: float, t: float, local) -> None:
+    def observe(self, state, energy) -> None:
+        seen = self.look.seen
+        self.see(self.look.vmax, state.t_interface, (seen[2], seen[4]))
+
+    def finish(self, state) -> dict:
+        return {"slip_rate_spike": self.report()}
+
+    def snapshot(self) -> dict:
+        return {"peak": self.peak, "x1": self.x1, "time": self.time, "first": self.first,
+                "steps_above": self.steps_above}
+
+    def restore(self, d: dict) -> None:
+        self.peak, self.x1, self.time, self.steps_above = d["peak"], d["x1"], d["time"], d["steps_above"]
+        self.first = None if d["first"] is None else tuple(d["first"])
+
+    def see(self, vmax: float, t: float, local) -> None:
         """After a step: ``vmax`` the largest slip rate on every rank at time ``t``;
         ``local``: this rank's largest slip rate and the x1 of its first point with
-        it (the monitor's pass, :func:`fricfem.kernels.watch.look`: −inf for no points)."""
+        it (:func:`fricfem.kernels.watch.look`: −inf for no points)."""
         if vmax > self.threshold:
             self.steps_above += 1
         if not vmax > self.peak:  # also a NaN (the watchdog stops on it)
@@ -272,143 +310,149 @@ class Spikes:
                 "above_threshold": first is not None, "first_above": first, "steps_above": self.steps_above}
 
 
-#: the parts of the time loop timed in summary.json's ``loop_cost``: the step
-#: (``step``: the steps without energies; ``energy``: what the energy evaluation
-#: adds to a step, estimated as the energy steps' time beyond that of as many
-#: steps without), and after each step the monitor's parts: the stations'
-#: rows, the watch (the one reduction: tip, initiation, watchdog, spikes, the
-#: energies' row), interface snapshots, field snapshots and gauges, flushes
-#: (the rows' gather and write, the summary so far)
-LOOP_PARTS = ("step", "step_with_energy", "stations", "watch", "snapshots", "fields_gauges", "flush")
+class Watchdog:
+    """Divergence, every step (:func:`watchdog_code`, from :class:`Look`'s pass and
+    the energies when the step took them), and a user's law's contract
+    (:class:`LawWatch`; ``law_watch`` None for a built-in law): the worst code
+    over all ranks (slot ``watchdog``) stops the run (``"watchdog"``;
+    :attr:`stopped` says why), or with ``watchdog.enabled = false`` marks it
+    diverged (:attr:`diverged`) and lets it go on.  ``energy_every``: the
+    energies' cadence (a user law's budget is checked at those steps)."""
 
-#: interface rows between two flushes: a kill loses at most this many rows (and
-#: ``output.flush_every`` seconds) of a run, whatever the wall time per row
-FLUSH_ROWS = 10
+    slots = ("watchdog",)
+    part = "watch"
 
-
-class Monitor:
-    """Per-step bookkeeping of one run (collective: one small reduction per step).
-
-    After each step, :meth:`observe` records the stations, tracks the leading
-    tip (the largest x1 sliding) and the first sliding, takes the energies and
-    interface snapshots due, writes the field snapshots due, flushes every
-    :data:`FLUSH_ROWS` interface rows and when the wall-clock interval
-    ``output.flush_every`` has passed, and returns why the run must stop, if it
-    must: ``"watchdog"`` (divergence; :attr:`stopped` says why), ``"tip"``
-    (the tip passed ``time.stop_at_tip``; :attr:`ended_early`), ``"signal"``
-    (SIGTERM or SIGINT) or None.
-    """
-
-    def __init__(self, scene, model, recorder, writer, every: int, flush):
-        self.scene = scene
+    def __init__(self, model, limits: dict, look_: Look, energy_every: int, law_watch=None):
         self.model = model
-        self.rec = recorder
-        self.writer = writer
-        self.every = every  # interface snapshot every this many steps
-        self.flush = flush  # callable(state): write what is pending and the summary so far
-        # field snapshots: output.fields and the isochromatic frames (output.frames)
-        self.field_steps = field_steps(list(scene.output["fields"]) + frame_times(scene.output["frames"]),
-                                       model.dt, scene.t_end)
-        self.gauges = None  # a fricfem.output.gauges.GaugeWriter, set by the runner when the scene has gauges
-        self.comm = model.comm
-        self.tip_t, self.tip_x = [], []
-        self.initiation = None
-        self.last_energy = None
-        self.end = {}  # "energy": the energies taken in the run's last step (set by the runner's loop)
-        self.rows_pending = 0  # interface rows since the last flush (the same on every rank)
-        self.last_flush = time.perf_counter()
-        self.stop_requested = False  # set by the SIGTERM and SIGINT handler
+        self.limits = limits
+        self.look = look_
+        self.energy_every = energy_every
+        self.law_watch = law_watch
         self.stopped = None
-        from .friction import BUILT_IN
+        self.diverged = None
 
-        self.law_watch = None if model.interface.law.name in BUILT_IN else LawWatch(model.interface)
-        self.diverged = None  # the watchdog disabled: why the run diverged (it went on; never complete)
-        self.ended_early = None
-        self.seconds = 0.0  # wall time spent here [s]
-        self.glob = np.full(6, -1.0)
-        self.local = np.empty(6)  # this rank's part of the step's one reduction
-        self.seen = np.empty(5)  # this rank's points after a step (fricfem.kernels.watch.look)
-        self.background = None  # the runner's writer of the periodic summary (fricfem.runner.Background)
-        self.wall_checkpoint = None  # rank 0: callable(now) -> whether a checkpoint is due by wall time
-        self.spikes = Spikes(scene.watchdog["max_slip_rate"], model.comm)  # reported, never a stop
-        self.t_loop0 = time.perf_counter()  # when the loop started (reset by the caller)
-        self.first_step_s = None  # wall time of the first step, JIT compilation included [s]
-        self.cost = dict.fromkeys(LOOP_PARTS, 0.0)  # wall time per part of the loop [s] (steps 2..n)
-        self.energy_steps = 0  # steps (after the first) that also took the energies
+    def bind(self, reduction) -> None:
+        self.red = reduction
+        self.i = reduction.slot("watchdog")
 
-    def observe(self, st, e) -> str | None:
-        """Bookkeeping after the step that left ``st`` at t^{n+1} (energies ``e`` at t^n or None);
-        the wall time of each part goes to :attr:`cost` (:data:`LOOP_PARTS`)."""
-        clock, cost = time.perf_counter, self.cost
-        t0 = clock()
-        scene, p, x1 = self.scene, self.model.interface.points, self.model.interface.geometry.x1
-        self.rec.station_step(st.t_interface)
-        t1 = clock()
-        cost["stations"] += t1 - t0
-        seen, local = self.seen, self.local
-        look(x1, p.slip_rate, p.Ts, p.Tn, seen)  # tip, first sliding, largest slip rate, finite?
-        code = watchdog_code(not seen[3], e if e is not None else self.end.get("energy"), scene.watchdog)
-        # the watchdog disabled: a divergence is reduced as code / 10 (< 1, no stop; :meth:`_stop`)
-        local[0], local[1], local[5] = seen[0], seen[1], seen[2]
-        local[4] = code if scene.watchdog["enabled"] else 0.1 * code
+    def contribute(self, state, energy) -> None:
+        code = watchdog_code(not self.look.seen[3], energy, self.limits)
+        # the watchdog disabled: a divergence is reduced as code / 10 (< 1, no stop; :meth:`observe`)
+        mine = code if self.limits["enabled"] else 0.1 * code
         if self.law_watch is not None:  # a user's law: its contract, every step (codes above the watchdog's)
-            local[4] = max(local[4], self.law_watch.code(e is not None))
-        local[2] = 1.0 if self.stop_requested else 0.0
-        local[3] = 1.0 if (self.comm.rank == 0 and t1 - self.last_flush > scene.output["flush_every"]) else 0.0
-        if self.wall_checkpoint is not None and self.comm.rank == 0 and self.wall_checkpoint(t1):
-            local[3] = 2.0  # a checkpoint due by wall time: a flush, then the checkpoint (fricfem.runner._checkpoint)
-        glob = self.glob
-        self.comm.Allreduce(local, glob, op=MPI.MAX)
-        self.spikes.observe(glob[5], st.t_interface, (seen[2], seen[4]))
-        if glob[0] >= 0:
-            self.tip_t.append(st.t_interface)
-            self.tip_x.append(glob[0])
-            if self.initiation is None:
-                self.initiation = {"time_s": st.t_interface, "x1_m": -glob[1], "x1_max_m": glob[0]}
-        if e is not None:
-            self.last_energy = e
-            self.rec.energy(e)
-        t2 = clock()
-        cost["watch"] += t2 - t1
-        if (st.n - 1) % self.every == 0:  # the interface at t = 0, every, 2 every, ... steps
-            self.rec.snapshot(st.t_interface)
-            self.rows_pending += 1
-        t3 = clock()
-        cost["snapshots"] += t3 - t2
-        if st.n in self.field_steps and self.writer is not None:
-            self.writer.write(st)
-        if self.gauges is not None:
-            self.gauges.observe(st)
-        t4 = clock()
-        cost["fields_gauges"] += t4 - t3
-        if glob[3] > 0 or self.rows_pending >= FLUSH_ROWS:
-            self.flush(st)
-            self.last_flush = clock()
-            self.rows_pending = 0
-            cost["flush"] += self.last_flush - t4
-        self.seconds += clock() - t0
-        return self._stop(st, glob)
+            every = self.energy_every
+            cadence = energy is not None and bool(every) and (state.n - 1) % every == 0
+            mine = max(mine, self.law_watch.code(cadence))
+        self.red.local[self.i] = mine
 
-    def _stop(self, st, glob) -> str | None:
-        if glob[4] >= min(_LAW):
-            self.stopped = _law_message(int(glob[4]), st.t, self.model.interface.law.name)
+    def observe(self, state, energy) -> str | None:
+        worst = self.red.glob[self.i]
+        if worst >= min(_LAW):
+            self.stopped = _law_message(int(worst), state.t, self.model.interface.law.name)
             return "watchdog"
-        if glob[4] >= 1:
-            self.stopped = _watchdog_message(int(glob[4]), st.t, self.model, self.scene.watchdog)
+        if worst >= 1:
+            self.stopped = _watchdog_message(int(worst), state.t, self.model, self.limits)
             return "watchdog"
-        if glob[4] > 0 and self.diverged is None:  # watchdog.enabled = false: the run goes on, never complete
-            self.diverged = (_watchdog_message(int(round(10 * glob[4])), st.t, self.model, self.scene.watchdog)
+        if worst > 0 and self.diverged is None:  # watchdog.enabled = false: the run goes on, never complete
+            self.diverged = (_watchdog_message(int(round(10 * worst)), state.t, self.model, self.limits)
                              .replace("watchdog stopped the run", "the run diverged (watchdog.enabled = false: "
                                       "not stopped)"))
-        if self.scene.stop_at_tip and glob[0] > self.scene.stop_at_tip:
-            self.ended_early = (f"the sliding tip passed x1 = {self.scene.stop_at_tip * 1e3:g} mm at "
-                                f"t = {st.t_interface * 1e6:.3f} µs")
-            return "tip"
-        if glob[2] > 0:
-            return "signal"
         return None
 
-    def tip_text(self) -> str:
+    def finish(self, state) -> dict:
+        return {"watchdog": self.stopped, **({"diverged": self.diverged} if self.diverged else {})}
+
+    def snapshot(self) -> dict:
+        """What it keeps (and its law watch's, ``law_watch``: :meth:`LawWatch.snapshot`)."""
+        return {"stopped": self.stopped, "diverged": self.diverged,
+                "law_watch": None if self.law_watch is None else self.law_watch.snapshot()}
+
+    def restore(self, d: dict) -> None:
+        self.stopped, self.diverged = d["stopped"], d["diverged"]
+        if self.law_watch is not None:
+            self.law_watch.restore(d["law_watch"])
+
+
+class Tip:
+    """The leading tip (the largest x1 sliding, every step: :attr:`tip_t`,
+    :attr:`tip_x`) and the first sliding (:attr:`initiation`), from :class:`Look`;
+    stops the run (``"tip"``; :attr:`ended_early`) once the tip passes ``stop_at``
+    [m] (0: never)."""
+
+    part = "watch"
+
+    def __init__(self, look_: Look, stop_at: float = 0.0):
+        self.look = look_
+        self.stop_at = stop_at
+        self.tip_t, self.tip_x = [], []
+        self.initiation = None
+        self.ended_early = None
+
+    def observe(self, state, energy) -> str | None:
+        tip = self.look.tip
+        if tip >= 0:
+            t = state.t_interface
+            self.tip_t.append(t)
+            self.tip_x.append(tip)
+            if self.initiation is None:
+                self.initiation = {"time_s": t, "x1_m": -self.look.first, "x1_max_m": tip}
+            if self.stop_at and tip > self.stop_at:
+                self.ended_early = (f"the sliding tip passed x1 = {self.stop_at * 1e3:g} mm at "
+                                    f"t = {state.t_interface * 1e6:.3f} µs")
+                return "tip"
+        return None
+
+    def finish(self, state) -> dict:
+        return {"initiation": self.initiation, "ended_early": self.ended_early}
+
+    def snapshot(self) -> dict:
+        return {"tip_t": list(self.tip_t), "tip_x": list(self.tip_x), "initiation": self.initiation,
+                "ended_early": self.ended_early}
+
+    def restore(self, d: dict) -> None:
+        self.tip_t, self.tip_x = [float(t) for t in d["tip_t"]], [float(x) for x in d["tip_x"]]
+        self.initiation, self.ended_early = d["initiation"], d["ended_early"]
+
+    def text(self) -> str:
         """The progress line's note on the tip."""
-        tip = f"tip {self.glob[0] * 1e3:6.1f} mm" if self.glob[0] >= 0 else "no slip"
-        return tip + self.spikes.text()
+        return f"tip {self.look.tip * 1e3:6.1f} mm" if self.look.tip >= 0 else "no slip"
+
+
+class Signals:
+    """SIGTERM and SIGINT (Ctrl-C) end the run cleanly at the next step on every
+    rank (slot ``signal``: ``"signal"``), its outputs finalised; a second Ctrl-C
+    stops at once (KeyboardInterrupt).  A context manager: the handlers are
+    installed (from the main thread only) on entry and the previous ones put
+    back on exit."""
+
+    slots = ("signal",)
+    part = "watch"
+
+    def __init__(self):
+        self.requested = False
+        self.previous = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.previous = {sig: signal.signal(sig, self._handle) for sig in (signal.SIGTERM, signal.SIGINT)}
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
+        self.previous = {}
+
+    def _handle(self, signum, frame) -> None:
+        if signum == signal.SIGINT and self.requested:  # a second Ctrl-C: stop now
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def bind(self, reduction) -> None:
+        self.red = reduction
+        self.i = reduction.slot("signal")
+
+    def contribute(self, state, energy) -> None:
+        self.red.local[self.i] = 1.0 if self.requested else 0.0
+
+    def observe(self, state, energy) -> str | None:
+        return "signal" if self.red.glob[self.i] > 0 else None
