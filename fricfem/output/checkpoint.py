@@ -240,13 +240,6 @@ def check_resume(out: Path, comm, scene=None) -> dict:
     return header
 
 
-def scene_of(header: dict):
-    """The scene a checkpoint was written for (its resolved input, validated again)."""
-    from ..scene import validate
-
-    return validate(header["input"])
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # the state in the grid's order
 
@@ -390,7 +383,7 @@ def restore(model, state, arrays: dict, header: dict) -> dict:
 class Checkpoints:
     """When to take a checkpoint, and taking it (the run's loop calls :meth:`due` after
     each step's watchers, :meth:`take` when due).  ``every`` [s] simulated time
-    (0: never), ``wall`` [s] wall-clock time (0: never; rank 0 decides, the monitor's
+    (0: never), ``wall`` [s] wall-clock time (0: never; rank 0 decides, the loop's
     reduction tells every rank: :meth:`wall_due`)."""
 
     def __init__(self, out: Path, scene, model):
@@ -517,29 +510,14 @@ def set_aside(out: Path, comm) -> dict:
 
 
 def resume(out: Path, header: dict, aside: dict, model, state, monitor) -> None:
-    """Put the checkpoint of ``out`` back (collective): the state, the watchers'
+    """Put the checkpoint of ``out`` back (collective): the state, the monitor's
     accumulators, the rows of interface.h5 and gauges.h5 up to the checkpoint (the
     rest rewritten as the run goes), the field snapshots it had; then the set-aside
     files go."""
-    comm = model.comm
-    meta = header["state"]["watchers"]
     arrays = read_arrays(Path(out) / CHECKPOINT_FILE, header)
     point_arrays = restore(model, state, arrays, header)
     restore_watchers(monitor, header, arrays, point_arrays)
-    for name, writer in (("interface.h5", monitor.rec), ("gauges.h5", monitor.gauges)):
-        if writer is None:
-            continue
-        if aside.get(name) is None:
-            raise CheckpointError(f"{Path(out) / name}: missing, so the run cannot continue from "
-                                  f"{Path(out) / CHECKPOINT_FILE}")
-        writer.resume(Path(aside[name]), meta["rows"] if name == "interface.h5" else meta["gauge_rows"] or 0)
-    if monitor.writer is not None:
-        monitor.writer.resume(meta["field_grids"] or [])
-    comm.Barrier()
-    if comm.rank == 0:
-        for path in aside.values():
-            if path is not None:
-                Path(path).unlink(missing_ok=True)
+    _reopen_files(out, header, aside, model.comm, monitor.rec, monitor.writer, monitor.gauges)
 
 
 # ---------------------------------------------------------------------------------------------------------------
