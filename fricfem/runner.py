@@ -41,7 +41,8 @@ from .output.directory import RunDirError
 from .output.record import record_texts, whole, write_record
 from .output.recorder import Recorder, planned_rows
 from .scene import Scene, SceneError
-from .scene.validate import check_identifier, field_steps
+from .scene.settings import field_steps
+from .scene.values import check_identifier
 from .scene.output_keys import frame_times
 from .step import State, Timing, evolve, n_steps, run
 

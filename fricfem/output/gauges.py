@@ -88,10 +88,10 @@ class GaugeWriter:
     """
 
     def __init__(self, path: Path, scene, model):
-        table = check_gauges(scene.output["gauges"], scene.mesh)
+        table = check_gauges(scene.output.gauges, scene.mesh)
         self.names = tuple(table)
         self.points = np.array([table[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
-        self.every = int(scene.output["gauges_every"])
+        self.every = scene.output.gauges_every
         self.comm = model.comm
         self.dt = model.dt
         self.planned = int(math.floor(scene.t_end / model.dt + 1e-9)) // self.every + 1  # rows, t = 0 included

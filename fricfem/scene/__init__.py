@@ -1,11 +1,14 @@
 """Scenes: one run described as data — the schema (:mod:`.schema`), files with
-inheritance and overrides (:mod:`.load`), validation into a :class:`Scene`
-(:mod:`.validate`), and the size and cost of its run estimated before anything
+inheritance and overrides (:mod:`.load`), validation (:mod:`.validate`, on the
+value checks of :mod:`.values`) into a :class:`Scene` with typed settings
+(:mod:`.settings`), and the size and cost of its run estimated before anything
 is built (:mod:`.cost`).  docs/scenes.md states the format and every rule."""
 
 from .load import SCENE_DIR, apply_overrides, parse_override, resolve, shipped
 from .schema import SCHEMA, SceneError, describe_keys
-from .validate import Scene, check_value, validate, validate_mesh
+from .settings import OutputSettings, Scene, WatchdogSettings
+from .validate import validate, validate_mesh
+from .values import check_identifier, check_value
 
 
 def load(ref, overrides=()) -> Scene:
@@ -13,5 +16,6 @@ def load(ref, overrides=()) -> Scene:
     return validate(apply_overrides(resolve(ref), overrides))
 
 
-__all__ = ["SCENE_DIR", "SCHEMA", "Scene", "SceneError", "apply_overrides", "check_value", "describe_keys",
-           "load", "parse_override", "resolve", "shipped", "validate", "validate_mesh"]
+__all__ = ["SCENE_DIR", "SCHEMA", "OutputSettings", "Scene", "SceneError", "WatchdogSettings", "apply_overrides",
+           "check_identifier", "check_value", "describe_keys", "load", "parse_override", "resolve", "shipped",
+           "validate", "validate_mesh"]

@@ -21,6 +21,7 @@ import math
 
 from ..keys import NUM, Key
 from .schema import SceneError, shown
+from .values import check_identifier, check_value
 
 #: Most gauges a scene may ask for (each is sampled every ``output.gauges_every`` steps).
 MAX_GAUGES = 10_000
@@ -31,15 +32,11 @@ CAMERA = ("start", "interval", "count")
 
 
 def _number(where: str, v, unit: str, low, high, doc: str, open_low=False) -> float:
-    from .validate import check_value
-
     return float(check_value(where, Key(NUM, 0.0, unit, low, high, doc, open_low=open_low), v))
 
 
 def check_gauges(table: dict, spec) -> dict:
     """The checked ``output.gauges``: {name: (x1, x2)} [m] (see the module's rules)."""
-    from .validate import check_identifier
-
     if len(table) > MAX_GAUGES:
         raise SceneError(f"output.gauges: {len(table)} gauges; at most {MAX_GAUGES}")
     seen, out = {}, {}
@@ -120,5 +117,5 @@ def check_frames(frames, t_end: float, step: float) -> list:
 def check(scene, step: float) -> None:
     """Check a scene's ``output.gauges`` and ``output.frames`` (``step``: the run's
     largest possible step [s])."""
-    check_gauges(scene.output["gauges"], scene.mesh)
-    check_frames(scene.output["frames"], scene.t_end, step)
+    check_gauges(scene.output.gauges, scene.mesh)
+    check_frames(scene.output.frames, scene.t_end, step)

@@ -29,8 +29,6 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import re
-from typing import NamedTuple
 
 import numpy as np
 
@@ -44,13 +42,12 @@ from ..model.material import Material
 from . import cost, output_keys
 from .load import read_toml
 from .schema import SCHEMA, SceneError, shown
+from .settings import OutputSettings, Scene, WatchdogSettings, settings
+from .values import check_identifier, check_value
 
 #: Largest mesh accepted by the scene's own (default) budget, in quadrilaterals (``--force`` lifts it
 #: up to ``cost.HARD``).
 MAX_QUADS = int(cost.BUDGET["quads"])
-
-#: An identifier: scene names (run directories) and station names (HDF5 paths).
-_IDENT = re.compile(r"[A-Za-z0-9_.\-]+")
 
 #: Friction parameters that are slip distances [m].
 SLIP_DISTANCES = ("Dc", "L0", "L1", "L2", "L")
@@ -60,78 +57,6 @@ SLIP_SCALE_WARN = 0.01
 EXPERIMENT_UNUSED = ("t_rise", "t_hold_end", "t_fall", "direction", "kind", "impedance")
 #: A cohesive / process zone resolved by fewer cells than this gets a warning.
 ZONE_CELLS = 3.0
-
-
-class Scene(NamedTuple):
-    """A validated scene (plain data; everything a run needs)."""
-
-    name: str
-    description: str
-    mesh: mesh_mod.MeshSpec
-    material: Material
-    pulse: ImpactPulse
-    sigma0: float
-    symmetric: bool
-    Cn: float
-    Cs: float
-    tau0: float
-    tau0_patches: tuple
-    law: str
-    params: dict
-    regions: tuple
-    t_end: float
-    dt_safety: float
-    dt: float | None
-    stop_at_tip: float
-    allow_unstable_dt: bool
-    skip_quiet: bool
-    output: dict
-    watchdog: dict
-    raw: dict  # the merged TOML tables, for the record
-    warnings: tuple = ()  # one line each: scale checks that did not refuse the scene
-    interface_kind: str = "elastic"  # model.grid.INTERFACE_KINDS
-    absorbing: tuple = ()  # outer edges with dashpots (model.grid.OUTER)
-    profiles: tuple = ()  # ((parameter name, ((x1, value), ...)), ...): piecewise-linear along x1
-    initial_state: str = "local"  # the traction the initial friction state comes from: 'local' or 'background'
-    experiment: object = None  # the experiment's steel bodies (fricfem.model.bodies.Experiment), or None
-
-
-def check_identifier(where: str, v, max_len: int) -> str:
-    """``v`` if it is an identifier: 1–``max_len`` characters among letters, digits,
-    ``_ - .``, and not ``.`` or ``..`` (safe as a file name and an HDF5 path)."""
-    if not isinstance(v, str):
-        raise SceneError(f"{where} = {shown(v)}: expected a string")
-    if not v or len(v) > max_len or not _IDENT.fullmatch(v) or v in (".", ".."):
-        raise SceneError(f"{where} = {shown(v)}: must be 1–{max_len} letters, digits, '_', '-' or '.', and not "
-                         f"'.' or '..'")
-    return v
-
-
-def check_value(where: str, k: Key, v):
-    """``v`` if it fits key ``k`` (type, finiteness, range, choices), else a SceneError."""
-    if k.kind == NUM:
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise SceneError(f"{where} = {shown(v)}: expected a number [{k.unit}] ({k.doc})")
-        if not math.isfinite(v):
-            raise SceneError(f"{where} = {v!r}: must be finite")
-    elif k.kind is int:
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise SceneError(f"{where} = {shown(v)}: expected a whole number [{k.unit}] ({k.doc})")
-    elif not isinstance(v, k.kind):
-        names = {str: "a string", bool: "true or false", list: "a list", dict: "a table"}
-        kinds = k.kind if isinstance(k.kind, tuple) else (k.kind,)
-        raise SceneError(f"{where} = {shown(v)}: expected {' or '.join(names.get(t, str(t)) for t in kinds)} "
-                         f"({k.doc})")
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
-        lo_bad = k.low is not None and (v <= k.low if k.open_low else v < k.low)
-        hi_bad = k.high is not None and (v >= k.high if k.open_high else v > k.high)
-        if lo_bad or hi_bad:
-            raise SceneError(f"{where} = {v!r} {k.unit}: must lie in {k.range_text()} {k.unit} ({k.doc})"
-                             .replace("  ", " "))
-    if k.choices and v not in k.choices:
-        sep = " or " if len(k.choices) == 2 else ", "
-        raise SceneError(f"{where} = {shown(v)}: allowed {sep.join(map(repr, k.choices))}")
-    return v
 
 
 def _section(raw: dict, name: str) -> dict:
@@ -371,14 +296,6 @@ def _scale_warnings(law: str, p: dict, spec, mat: Material, sigma0: float) -> li
     return out
 
 
-def field_steps(times, dt: float, t_end: float) -> list:
-    """The steps at which field snapshots at ``times`` are written: each at its
-    nearest step, kept within the run's steps 1 … floor(t_end/dt) (a validated
-    time lies in (0, t_end], so it moves by less than one step)."""
-    n_end = int(math.floor(t_end / dt + 1e-9))
-    return sorted({min(max(int(round(t / dt)), 1), n_end) for t in times})
-
-
 def _time_rules(sc: Scene) -> None:
     """At least one step; a fixed step not above the stable one (unless allowed); field times."""
     est = cost.estimate(sc)
@@ -394,7 +311,7 @@ def _time_rules(sc: Scene) -> None:
     elif sc.t_end < est.dt_high:
         raise SceneError(f"time.end = {sc.t_end!r} s is shorter than one step (up to {est.dt_high:.3g} s on this "
                          f"mesh with time.dt_safety = {sc.dt_safety:g}): the run would take no step")
-    times = sc.output["fields"]
+    times = sc.output.fields
     for i, t in enumerate(times):
         if t < 0.5 * est.dt_high:
             raise SceneError(f"output.fields[{i}] = {t!r} s: less than half a step (the step is up to "
@@ -497,7 +414,10 @@ def validate(raw: dict) -> Scene:
         tau0=float(itf["tau0"]), tau0_patches=patches, law=law, params=params, regions=regions,
         t_end=float(tm["end"]), dt_safety=float(tm["dt_safety"]), dt=float(tm["dt"]) or None,
         stop_at_tip=float(tm["stop_at_tip"]), allow_unstable_dt=tm["allow_unstable_dt"],
-        skip_quiet=tm["skip_quiet"], output=out, watchdog=sec["watchdog"], raw=raw,
+        skip_quiet=tm["skip_quiet"], output=settings(OutputSettings, out),
+        watchdog=settings(WatchdogSettings, {**sec["watchdog"],  # the spike threshold's default: c_l
+                                             "max_slip_rate": sec["watchdog"]["max_slip_rate"] or mat.c_l}),
+        raw=raw,
         interface_kind=itf["kind"], absorbing=absorbing, profiles=profiles,
         initial_state=sec["friction"]["initial_state"], experiment=experiment,
     )

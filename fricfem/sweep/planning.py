@@ -150,7 +150,7 @@ def plan(base: str, sigma0_mpa, v_imp, sets=(), preset: str | None = None, varia
     common = _check_sets(sets, preset) + ([f"mesh.preset={json.dumps(preset)}"] if preset else []) \
         + ["output.fields=[]"]
     base_scene = scene_mod.load(base, common)
-    if base_scene.output["frames"]:  # a base scene's camera frames are field snapshots too: none in a sweep
+    if base_scene.output.frames:  # a base scene's camera frames are field snapshots too: none in a sweep
         common.append("output.frames=[]")
         base_scene = scene_mod.load(base, common)
     maps = {"": {"dir": out, "overrides": tuple(common), "factor": 1.0, "Cn": base_scene.Cn, "Cs": base_scene.Cs,
