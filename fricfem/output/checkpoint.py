@@ -226,12 +226,6 @@ def check_resume(out: Path, comm, scene=None) -> dict:
                                       f"{' '.join(str(summary['watchdog']).split())[:200]}): it is finished, and "
                                       "would diverge again; run it anew (--overwrite) with other settings")
             header = read_header(Path(out) / CHECKPOINT_FILE, scene)
-            grids = header["state"]["watchers"].get("field_grids")
-            if header["ranks"] != comm.size and grids:
-                raise CheckpointError(f"{Path(out) / CHECKPOINT_FILE}: written on {header['ranks']} rank(s) after "
-                                      f"{len(grids)} field snapshot(s), whose nodes are in that partition's order: "
-                                      f"resume it on {header['ranks']} rank(s) (runs without field snapshots "
-                                      "resume on any number)")
         except CheckpointError as err:
             problem = str(err)
     header, problem = comm.bcast((header, problem), root=0)
@@ -488,19 +482,22 @@ def restore_watchers(monitor, header: dict, arrays: dict, point_arrays: dict) ->
 # resuming a run
 
 
-#: the row files a resumed run continues: renamed aside, laid out again, their first rows copied back
-ROW_FILES = ("interface.h5", "gauges.h5")
+#: the files a resumed run sets aside before its writers make them again: the row files (laid out
+#: again, their first rows copied back) and the field snapshots' mesh (put back if its order differs)
+ASIDE_FILES = ("interface.h5", "gauges.h5", "fields/mesh.h5")
 
 
 def set_aside(out: Path, comm) -> dict:
-    """Rank 0 renames each row file of ``out`` to ``.<name>.resume`` (unless an earlier
-    resume, killed, left it there: that one is the original); {name: path or None} on
-    every rank.  The run then lays its files out afresh and copies the rows back."""
+    """Rank 0 renames each of :data:`ASIDE_FILES` in ``out`` to ``.<name>.resume``
+    beside it (unless an earlier resume, killed, left it there: that one is the
+    original); {name: path or None} on every rank.  The run then makes its files
+    afresh and takes back from these what the checkpoint counts."""
     found = None
     if comm.rank == 0:
         found = {}
-        for name in ROW_FILES:
-            path, aside = Path(out) / name, Path(out) / f".{name}.resume"
+        for name in ASIDE_FILES:
+            path = Path(out) / name
+            aside = path.with_name(f".{path.name}.resume")
             if not aside.exists() and path.exists():
                 os.replace(path, aside)
             found[name] = str(aside) if aside.exists() else None
@@ -625,8 +622,8 @@ def _reopen_files(out: Path, header: dict, aside: dict, comm, rec, writer, gauge
             raise CheckpointError(f"{Path(out) / name}: missing, so the run cannot continue from "
                                   f"{Path(out) / CHECKPOINT_FILE}")
         w.resume(Path(aside[name]), meta["rows"] if name == "interface.h5" else meta["gauge_rows"] or 0)
-    if writer is not None:
-        writer.resume(meta["field_grids"] or [])
+    if writer is not None:  # collective
+        writer.resume(meta["field_grids"] or [], aside.get("fields/mesh.h5"))
     comm.Barrier()
     if comm.rank == 0:
         for path in aside.values():

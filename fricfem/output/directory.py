@@ -36,7 +36,7 @@ LOCK_FILE = ".fricfem.lock"
 MANIFEST_FILE = ".fricfem-manifest.json"
 #: what a run writes at the top of its directory, and the folder of its field files
 RUN_FILES = ("interface.h5", "fields.xdmf", "summary.json", "evidence.json", "gauges.h5", "checkpoint.fricfem")
-RUN_DIRS = {"fields": re.compile(r"(mesh|t\d{4,})\.h5|\.mesh\.(h5|xdmf)|\..*\.part(\.h5|\.xdmf)?"),
+RUN_DIRS = {"fields": re.compile(r"(mesh|t\d{4,})\.h5|\.mesh\.(h5|xdmf)(\.resume)?|\..*\.part(\.h5|\.xdmf)?"),
             "plots": re.compile(r"(interface_.*|tip_speed|station_.*|spacetime|isochromatic.*)\.png")}
 #: files of runs made before the manifest existed (recognised by their summary.json)
 LEGACY_FILES = ("interface.h5", "fields.xdmf", "fields.h5", "summary.json")

@@ -226,6 +226,7 @@ class FieldWriter:
         self.node_dof = node_dof[: msh.geometry.index_map().size_local]
         self.n_cells = msh.topology.index_map(msh.topology.dim).size_local
         self.counts = self.comm.gather((len(self.node_dof), self.n_cells), root=0)
+        self.order = None  # rank 0: (nodes, cells) in the order of a resumed run's mesh.h5 (:meth:`resume`)
 
     def _gathered(self, values, what: int):
         """``values`` of every rank, concatenated in rank order on rank 0 (None
@@ -259,6 +260,9 @@ class FieldWriter:
                   "velocity": self._gathered(self._nodal(self.v), 0),
                   "stress_difference": self._gathered(cell_stress(self.stress_inputs, self.u.x.array)[:, None], 1)}
         error = None
+        if self.comm.rank == 0 and self.order is not None:  # the nodes and cells as the run's mesh.h5 has them
+            nodes, cells = self.order
+            values = {k: v[cells if k == "stress_difference" else nodes] for k, v in values.items()}
         if self.comm.rank == 0:
             try:
                 self._write_snapshot(values, state.t)
@@ -325,12 +329,30 @@ class FieldWriter:
                 + '    <Grid Name="fields" GridType="Collection" CollectionType="Temporal">\n'
                 + "".join(self.grids) + "    </Grid>\n  </Domain>\n</Xdmf>\n")
 
-    def resume(self, grids: list) -> None:
+    def resume(self, grids: list, old_mesh: Path | None = None) -> None:
         """Continue a run from its checkpoint: the snapshots it had written (``grids``,
         the XML of each, as :attr:`grids` held them) are the series again; the files of
-        later snapshots are removed and ``fields.xdmf`` lists those (rank 0 writes)."""
+        later snapshots are removed and ``fields.xdmf`` lists those.  ``old_mesh``: the
+        run's own ``mesh.h5``, set aside before this writer wrote the mesh again; when
+        the nodes or cells are in another order (another rank count), it is put back
+        and every later snapshot is written in its order (:attr:`order`, matched by
+        coordinates), so the series stays one mesh.  Collective."""
+        coords = self._coordinates()
         if self.comm.rank != 0:
             return
+        if old_mesh is not None and Path(old_mesh).exists():
+            import h5py
+
+            with h5py.File(self.dir / MESH_FILE, "r") as f:
+                same = np.array_equal(f["Mesh/mesh/geometry"][...], _read(old_mesh, "geometry")) and \
+                    np.array_equal(f["Mesh/mesh/topology"][...], _read(old_mesh, "topology"))
+            if same:
+                Path(old_mesh).unlink()
+            else:
+                geometry, topology = _read(old_mesh, "geometry"), _read(old_mesh, "topology")
+                self.order = _matching(coords, geometry, topology)
+                self.projection = nodal_projection(topology, geometry)
+                os.replace(old_mesh, self.dir / MESH_FILE)
         self.grids = list(grids)
         for entry in os.listdir(self.dir):
             k = entry[1:-3]
@@ -338,5 +360,49 @@ class FieldWriter:
                 (self.dir / entry).unlink()
         _replace_text(self.path, self._document())
 
+    def _coordinates(self):
+        """Rank 0: the coordinates of every owned node and of every owned cell's
+        vertices, in the order this writer gathers them (collective)."""
+        msh = self.u.function_space.mesh
+        x = msh.geometry.x[:, :2]
+        nodes = np.ascontiguousarray(x[: len(self.node_dof)])
+        cells = np.ascontiguousarray(x[compat.geometry_dofs(msh).reshape(-1, 3)[: self.n_cells]].reshape(-1, 6))
+        return self._gathered(nodes, 0), self._gathered(cells, 1)
+
     def close(self) -> None:
         """Nothing stays open between snapshots; kept for the writer's contract."""
+
+
+def _read(path: Path, name: str) -> np.ndarray:
+    """``/Mesh/mesh/<name>`` of a mesh file."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return f[f"Mesh/mesh/{name}"][...]
+
+
+def _matching(coords: tuple, geometry: np.ndarray, topology: np.ndarray) -> tuple:
+    """(nodes, cells): for each node and cell of a mesh file (``geometry``,
+    ``topology``), the index of the same node (its coordinates) and the same cell
+    (its vertices' coordinates, in any order) among ``coords`` (nodes [n, 2],
+    cells [c, 6]: :meth:`FieldWriter._coordinates`)."""
+    nodes, cells = coords
+
+    def match(a, b):  # rows of b as indices into a, rows compared exactly
+        ia, ib = np.lexsort(a.T[::-1]), np.lexsort(b.T[::-1])
+        if a.shape != b.shape or not np.array_equal(a[ia], b[ib]):
+            raise ValueError("fields: the mesh file's nodes or cells are not this mesh's")
+        out = np.empty(len(b), dtype=np.int64)
+        out[ib] = ia
+        return out
+
+    g = np.ascontiguousarray(geometry[:, :2], dtype=np.float64)
+    old = g[np.asarray(topology, dtype=np.int64)]  # [c, 3, 2]
+    return match(nodes, g), match(_sorted_vertices(cells.reshape(-1, 3, 2)), _sorted_vertices(old))
+
+
+def _sorted_vertices(v: np.ndarray) -> np.ndarray:
+    """Each cell's three vertices (v [c, 3, 2]) sorted by x1, then x2: [c, 6]."""
+    by_x2 = np.take_along_axis(v, np.argsort(v[:, :, 1], axis=1, kind="stable")[:, :, None], axis=1)
+    by_x1 = np.take_along_axis(by_x2, np.argsort(by_x2[:, :, 0], axis=1, kind="stable")[:, :, None], axis=1)
+    return np.ascontiguousarray(by_x1.reshape(-1, 6))
