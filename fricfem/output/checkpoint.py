@@ -8,8 +8,9 @@ What is in it (``checkpoint.fricfem`` in the run directory):
   work and absorbed energy;
 - every interface point's evolving arrays (the law's state and memo, tractions,
   jumps, slip, slip rate, work, dissipation, open flag, sub-steps);
-- the watchers' accumulators: the tip's history, initiation, the last energies,
-  the slip-rate spikes, a user law's watch, the energy-step count;
+- the observers' accumulators (their ``snapshot()``): the tip's history,
+  initiation, the last energies, the slip-rate spikes, the watchdog's verdicts
+  and a user law's watch (per point, in grid order);
 - how far each output file had got: interface rows, station rows, energy rows,
   field snapshots, gauge rows.
 
@@ -319,7 +320,7 @@ def _put_parts(model, state, d: dict) -> None:
 
 def snapshot(model, state, watchers: dict) -> tuple | None:
     """The run's state as (header fields, arrays) on rank 0, None elsewhere (collective).
-    ``watchers``: the accumulators of the run's watchers (:func:`watchers`: JSON-able
+    ``watchers``: the accumulators of the run's observers (:func:`observed`: JSON-able
     scalars under ``"meta"``, arrays under ``"arrays"``, per-point arrays under ``"points"``)."""
     comm = model.comm
     ids = _ids(model)
@@ -346,7 +347,7 @@ def snapshot(model, state, watchers: dict) -> tuple | None:
 
 def restore(model, state, arrays: dict, header: dict) -> dict:
     """Set ``state`` (its interface points too) from a checkpoint's ``arrays``; returns
-    this rank's watcher arrays per point (``watch.<name>``) for :func:`restore_watchers`."""
+    this rank's observer arrays per point (``<name>``) for :func:`restore_observed`."""
     comm = model.comm
     meta = header["state"]
     if meta["dt"] != model.dt:
@@ -431,54 +432,6 @@ class Checkpoints:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# the watchers' accumulators (the run's monitor and writers as they are today: one adapter, switched over
-# to the observers' own snapshot()/restore() when they have them)
-
-
-def watchers(monitor, rec, writer, gauges) -> dict:
-    """The accumulators of the run's watchers and how far each output got (this rank's view;
-    rank 0's is the one written)."""
-    sp = monitor.spikes
-    meta = {
-        "initiation": monitor.initiation, "last_energy": monitor.last_energy, "end": monitor.end,
-        "diverged": monitor.diverged, "energy_steps": monitor.energy_steps,
-        "spikes": {"peak": sp.peak, "x1": sp.x1, "time": sp.time, "first": sp.first, "steps_above": sp.steps_above},
-        "rows": {"snapshots": rec.written["snapshots"], "energy": rec.written["energy"],
-                 "stations": dict(rec.station_n)},
-        "field_grids": list(writer.grids) if writer is not None else None,
-        "gauge_rows": gauges.written if gauges is not None else None,
-        "law_watch_breaches": monitor.law_watch.breaches if monitor.law_watch is not None else None,
-    }
-    arrays = {"tip_t": np.asarray(monitor.tip_t, dtype=np.float64), "tip_x": np.asarray(monitor.tip_x, dtype=np.float64)}
-    points = {}
-    if monitor.law_watch is not None:
-        lw = monitor.law_watch
-        points = {"d_last": lw.d_last, "slip_last": lw.slip_last, "signed": lw.signed}
-    return {"meta": meta, "arrays": arrays, "points": points}
-
-
-def restore_watchers(monitor, header: dict, arrays: dict, point_arrays: dict) -> None:
-    """Set the monitor's accumulators from a checkpoint (every rank)."""
-    meta = header["state"]["watchers"]
-    monitor.tip_t = arrays["arrays/tip_t"].tolist()
-    monitor.tip_x = arrays["arrays/tip_x"].tolist()
-    monitor.initiation = meta["initiation"]
-    monitor.last_energy = meta["last_energy"]
-    monitor.end = dict(meta["end"])
-    monitor.diverged = meta["diverged"]
-    monitor.energy_steps = meta["energy_steps"]
-    sp, s = monitor.spikes, meta["spikes"]
-    sp.peak, sp.x1, sp.time, sp.steps_above = s["peak"], s["x1"], s["time"], s["steps_above"]
-    sp.first = None if s["first"] is None else tuple(s["first"])
-    if monitor.law_watch is not None:
-        lw = monitor.law_watch
-        lw.d_last[:], lw.slip_last[:], lw.signed[:] = (point_arrays[k] for k in ("d_last", "slip_last", "signed"))
-        lw.breaches = meta["law_watch_breaches"] or 0
-    if monitor.tip_x:  # the progress line's tip
-        monitor.glob[0] = monitor.tip_x[-1]
-
-
-# ---------------------------------------------------------------------------------------------------------------
 # resuming a run
 
 
@@ -506,17 +459,6 @@ def set_aside(out: Path, comm) -> dict:
     return comm.bcast(found, root=0)
 
 
-def resume(out: Path, header: dict, aside: dict, model, state, monitor) -> None:
-    """Put the checkpoint of ``out`` back (collective): the state, the monitor's
-    accumulators, the rows of interface.h5 and gauges.h5 up to the checkpoint (the
-    rest rewritten as the run goes), the field snapshots it had; then the set-aside
-    files go."""
-    arrays = read_arrays(Path(out) / CHECKPOINT_FILE, header)
-    point_arrays = restore(model, state, arrays, header)
-    restore_watchers(monitor, header, arrays, point_arrays)
-    _reopen_files(out, header, aside, model.comm, monitor.rec, monitor.writer, monitor.gauges)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # the observers of the one loop (fricfem.observe): what they accumulate, and the checkpoint as an observer
 
@@ -534,40 +476,55 @@ class Watched(NamedTuple):
     gauges: object  # output.gauges.GaugeWriter or None: rows written
 
 
+#: the observers of :class:`Watched` whose own ``snapshot()`` / ``restore()`` a checkpoint holds
+_OBSERVERS = ("tip", "spikes", "watchdog", "energies")
+
+
+def _pack(value, name: str, arrays: dict, points: dict):
+    """An observer's snapshot as JSON, its lists (histories) and arrays (this rank's points)
+    replaced by references to ``arrays`` and ``points`` (kept in the npz, the points in grid order)."""
+    if isinstance(value, dict):
+        return {k: _pack(v, f"{name}.{k}", arrays, points) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        points[name] = value
+        return {"__points__": name}
+    if isinstance(value, list):
+        arrays[name] = np.asarray(value, dtype=np.float64)
+        return {"__array__": name}
+    return value
+
+
+def _unpack(value, arrays: dict, points: dict):
+    """:func:`_pack` undone (on every rank: ``points`` this rank's part)."""
+    if isinstance(value, dict):
+        if set(value) == {"__points__"}:
+            return points[value["__points__"]]
+        if set(value) == {"__array__"}:
+            return arrays[f"arrays/{value['__array__']}"].tolist()
+        return {k: _unpack(v, arrays, points) for k, v in value.items()}
+    return value
+
+
 def observed(w: Watched) -> dict:
-    """The accumulators of the observers ``w`` and how far each output got (this rank's
-    view; rank 0's is the one written): {"meta", "arrays", "points"} as :func:`snapshot` takes."""
-    sp, lw = w.spikes, w.watchdog.law_watch
+    """The accumulators of the observers ``w`` (their ``snapshot()``) and how far each
+    output got (this rank's view; rank 0's is the one written): {"meta", "arrays",
+    "points"} as :func:`snapshot` takes."""
+    arrays, points = {}, {}
     meta = {
-        "initiation": w.tip.initiation, "diverged": w.watchdog.diverged,
-        "energy_last": w.energies.last, "energy_end": w.energies.end,
-        "spikes": {"peak": sp.peak, "x1": sp.x1, "time": sp.time, "first": sp.first, "steps_above": sp.steps_above},
+        "observers": {k: _pack(getattr(w, k).snapshot(), k, arrays, points) for k in _OBSERVERS},
         "rows": {"snapshots": w.rec.written["snapshots"], "energy": w.rec.written["energy"],
                  "stations": dict(w.rec.station_n)},
         "field_grids": list(w.writer.grids) if w.writer is not None else None,
         "gauge_rows": w.gauges.written if w.gauges is not None else None,
-        "law_watch_breaches": lw.breaches if lw is not None else None,
     }
-    arrays = {"tip_t": np.asarray(w.tip.tip_t, dtype=np.float64), "tip_x": np.asarray(w.tip.tip_x, dtype=np.float64)}
-    points = {} if lw is None else {"d_last": lw.d_last, "slip_last": lw.slip_last, "signed": lw.signed}
     return {"meta": meta, "arrays": arrays, "points": points}
 
 
 def restore_observed(w: Watched, header: dict, arrays: dict, point_arrays: dict) -> None:
-    """Set the observers' accumulators from a checkpoint (every rank)."""
-    meta = header["state"]["watchers"]
-    w.tip.tip_t = arrays["arrays/tip_t"].tolist()
-    w.tip.tip_x = arrays["arrays/tip_x"].tolist()
-    w.tip.initiation = meta["initiation"]
-    w.watchdog.diverged = meta["diverged"]
-    w.energies.last, w.energies.end = meta["energy_last"], meta["energy_end"]
-    sp, s = w.spikes, meta["spikes"]
-    sp.peak, sp.x1, sp.time, sp.steps_above = s["peak"], s["x1"], s["time"], s["steps_above"]
-    sp.first = None if s["first"] is None else tuple(s["first"])
-    lw = w.watchdog.law_watch
-    if lw is not None:
-        lw.d_last[:], lw.slip_last[:], lw.signed[:] = (point_arrays[k] for k in ("d_last", "slip_last", "signed"))
-        lw.breaches = meta["law_watch_breaches"] or 0
+    """Put the observers' accumulators back from a checkpoint (every rank: their ``restore()``)."""
+    packed = header["state"]["watchers"]["observers"]
+    for k in _OBSERVERS:
+        getattr(w, k).restore(_unpack(packed[k], arrays, point_arrays))
 
 
 class Checkpointer:
