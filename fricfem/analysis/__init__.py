@@ -11,11 +11,12 @@ positions by "a progressive least squares fit using five points"
 """
 
 from .classify import LABELS, SNAPSHOT_TYPES, Criteria, classify
+from . import rupture
 from .fronts import Front, fronts
 from .regions import Region, cell_lengths, slip_regions
 from .speeds import SPEED_NAMES, mach_numbers, regime
 from .tip import leading_tip, tip_history, tip_record, tip_speed
 
 __all__ = ["LABELS", "SNAPSHOT_TYPES", "SPEED_NAMES", "Criteria", "Front", "Region", "cell_lengths", "classify",
-           "fronts", "leading_tip", "mach_numbers", "regime", "slip_regions", "tip_history", "tip_record",
+           "fronts", "leading_tip", "mach_numbers", "regime", "rupture", "slip_regions", "tip_history", "tip_record",
            "tip_speed"]

@@ -35,7 +35,10 @@ def spacetime(src, path, *, summary: dict | None = None, info: RunInfo | None = 
     """Δu̇_slip over x1 (horizontal, mm) and t (vertical, µs) on a log colour
     scale spanning ``decades`` below the peak; stick (Δu̇_slip = 0) white.
     Over it: fronts from ``summary["fronts"]`` (rupture solid, healing dashed;
-    the tip track if there are no fronts) and the lines x1 = c_l t, x1 = c_s t.
+    the tip track if there are no fronts), the lines x1 = c_l t, x1 = c_s t, and
+    for a nucleated rupture (``summary["rupture"]``,
+    :mod:`fricfem.analysis.rupture`) the rupture-time front t_r(x1), the
+    nucleation point and where V_r first exceeds c_s and √2 c_s.
     Larger maps are max-pooled to at most ``max_cells`` = (n_x, n_t) cells so
     narrow pulses survive.
     """
@@ -67,6 +70,7 @@ def spacetime(src, path, *, summary: dict | None = None, info: RunInfo | None = 
     if struck:
         _reference_lines(ax, info.speeds, tmax, float(x[-1]) if len(x) else 0.1)
     handles = _front_lines(ax, summary)
+    handles += _rupture_lines(ax, summary)
     handles += [Line2D([], [], color="k", ls=ls, lw=1, label=rf"$x_1 = {SPEED_LABEL[key][1:-1]}\,t$")
                 for key, ls in (("c_l", "-."), ("c_s", ":")) if struck and info.speeds.get(key)]
     # x1: where the interface slid (from the struck edge when struck), not the whole plate
@@ -128,4 +132,46 @@ def _front_lines(ax, summary: dict) -> list:
     if not handles and tip.get("time_s") and len(tip.get("time_s")) == len(tip.get("x1_m", [])):
         ax.plot(np.asarray(tip["x1_m"]) * 1e3, np.asarray(tip["time_s"]) * 1e6, "C3-", lw=1.4)
         handles.append(Line2D([], [], color="C3", lw=1.4, label="leading tip"))
+    return handles
+
+
+#: artist ids of the rupture block's marks (tests find them by these)
+RUPTURE_GIDS = {"front": "rupture_time", "nucleation": "nucleation", "supershear": "supershear",
+                "above_sqrt2_c_s": "above_sqrt2_c_s"}
+
+
+def _numbers(values) -> np.ndarray:
+    """float64 of a JSON list (null: NaN)."""
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
+
+
+def _rupture_lines(ax, summary: dict) -> list:
+    """The rupture-time front t_r(x1) of summary.json's ``rupture`` block (a gap
+    where a point never ruptured), the nucleation point and the supershear
+    transitions of each direction; return legend handles."""
+    rup = summary.get("rupture") or {}
+    field = rup.get("field") or {}
+    x = _numbers(field.get("x1_m", []))
+    t = _numbers(field.get("time_s", []))
+    if not len(x) or len(x) != len(t) or not np.isfinite(t).any():
+        return []
+    thr = rup.get("threshold_m_s")
+    what = rf"$t_r$ (first $|\dot{{\Delta u}}_{{slip}}| \geq$ {thr * 1e3:g} mm/s)" if thr else r"$t_r$"
+    ax.plot(x * 1e3, t * 1e6, color="w", lw=2.2, alpha=0.9, gid=RUPTURE_GIDS["front"] + "_halo")
+    ax.plot(x * 1e3, t * 1e6, color="C6", lw=1.0, gid=RUPTURE_GIDS["front"])
+    handles = [Line2D([], [], color="C6", lw=1.0, label=what)]
+    nuc = rup.get("nucleation")
+    if nuc:
+        ax.plot([nuc["x1_m"] * 1e3], [nuc["time_s"] * 1e6], "*", color="C6", mec="k", ms=11,
+                gid=RUPTURE_GIDS["nucleation"])
+        handles.append(Line2D([], [], marker="*", color="C6", mec="k", ls="", ms=9,
+                              label=f"nucleation ({nuc['x1_m'] * 1e3:.4g} mm, {nuc['time_s'] * 1e6:.3g} µs)"))
+    for key, marker, text in (("supershear", "^", r"$V_r > c_s$"), ("above_sqrt2_c_s", "D", r"$V_r > \sqrt{2}\,c_s$")):
+        points = [d[key] for d in rup.get("directions") or [] if d.get(key)]
+        if not points:
+            continue
+        ax.plot([p["x1_m"] * 1e3 for p in points], [p["time_s"] * 1e6 for p in points], marker, color="w",
+                mec="k", ms=7, ls="", gid=RUPTURE_GIDS[key])
+        handles.append(Line2D([], [], marker=marker, color="w", mec="k", ls="", ms=6,
+                              label=text + " from " + ", ".join(f"{p['x1_m'] * 1e3:.4g} mm" for p in points)))
     return handles

@@ -141,6 +141,9 @@ SCHEMA = {
         "checkpoint_wall": Key(NUM, 0.0, "s", 0.0, 1e7, "wall-clock seconds between checkpoints (decided on "
                                "rank 0, e.g. 1800 under a batch system's time limit); 0: none by wall time"),
         "diagnostics": Key(bool, True, doc="tip, fronts and mode classification in summary.json"),
+        "rupture_threshold": Key(NUM, 1e-3, "m/s", 0.0, 1e3, "slip rate whose first crossing is a point's "
+                                 "rupture time t_r (summary.json 'rupture': t_r(x1), rupture speed, supershear "
+                                 "transition; fricfem/analysis/rupture.py)", open_low=True),
         # gauges, frames and the photoelastic constants: fricfem/scene/output_keys.py checks them
         "gauges": Key(dict, {}, "m", doc="gauge name -> [x1, x2] inside a plate (x2 != 0: not on the interface): "
                                          "velocity, strain and sigma1 - sigma2 there every output.gauges_every "
