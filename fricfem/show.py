@@ -13,6 +13,9 @@ import json
 import math
 import re
 
+from . import scene as scene_mod
+from .scene.load import MAX_DEPTH, _locate, read_toml
+
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
@@ -61,8 +64,6 @@ def dumps(raw: dict, header: str = "") -> str:
 
 def chain(ref: str) -> list:
     """The files of a scene's base chain, the scene's own first."""
-    from .scene.load import MAX_DEPTH, _locate, read_toml
-
     out, path = [], _locate(str(ref))
     while path is not None and len(out) <= MAX_DEPTH:
         out.append(str(path))
@@ -73,8 +74,6 @@ def chain(ref: str) -> list:
 
 def show(ref: str, overrides=()) -> str:
     """The TOML of scene ``ref`` with ``overrides`` (validated first: a bad scene is one SceneError)."""
-    from . import scene as scene_mod
-
     scene_mod.load(ref, overrides)  # the same checks as `fricfem run`
     raw = scene_mod.apply_overrides(scene_mod.resolve(ref), overrides)
     files = chain(ref)

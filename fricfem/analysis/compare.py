@@ -14,12 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output.rundir import open_run
 from . import convergence as conv
 
 
 def _open(rundir):
-    from ..output.rundir import open_run
-
     rundir = Path(rundir)
     if not (rundir / "interface.h5").is_file():
         raise ValueError(f"{rundir}: not a run directory (no interface.h5)")

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output.rundir import open_run
+
 RUPTURE_THRESHOLD = 1e-3  # m/s: a station has ruptured once Δu̇_slip exceeds this
 
 
@@ -20,8 +22,6 @@ def record(rundir, scene=None) -> dict:
     """What the metrics need from a run directory: ``stations`` {name: {"x1",
     "t", "v"}} (slip rate [m/s] against time [s]), the tip track ``tip_t``,
     ``tip_x``, ``t_end_s``, the speeds, the sizes and the timings."""
-    from ..output.rundir import open_run
-
     r = open_run(Path(rundir))
     s = r.summary
     tip = s.get("tip") or {"time_s": [], "x1_m": []}

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..scene import validate
 from .rundir import INTERFACE_FILE, open_interface, read_summary, sliding_sign
 
 FORMATS = ("scec", "csv")
@@ -58,8 +59,6 @@ def station_series(rundir) -> dict:
 def _element_size(summary: dict):
     """The cell size along the interface [m] of the run's scene (None if it cannot be told)."""
     try:
-        from ..scene import validate
-
         return float(validate(summary["input"]).mesh.dx)
     except Exception:  # an old or partial summary: the header says unknown
         return None

@@ -47,6 +47,7 @@ import h5py
 import numpy as np
 
 from ..scene.output_keys import check_gauges
+from .directory import RunDirError
 from .points import Located, NodeValues, locate
 from .quantities import GAUGE_QUANTITIES, GAUGES_FILE
 from .recorder import check_space, compact, h5_error
@@ -201,8 +202,6 @@ class GaugeWriter:
                 error = f"{old}: cannot resume from it: {err.strerror if isinstance(err, OSError) else err}"
         error = self.comm.bcast(error, root=0)
         if error is not None:
-            from .directory import RunDirError
-
             raise RunDirError(error)
 
     def close(self) -> None:

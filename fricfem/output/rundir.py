@@ -21,7 +21,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .quantities import INTERFACE_FILE
+from .quantities import ENERGY, INTERFACE_FILE, unit
 from .record import jsonable, read_evidence, read_summary, write_summary  # noqa: F401 (the readers' API)
 
 log = logging.getLogger("fricfem.output")
@@ -381,8 +381,6 @@ class Run:
             n = valid_rows(g["time"], _attr(g.attrs, "n")) if g is not None and "time" in g else 0
             self.energy = {k: np.asarray(g[k][:n], dtype=np.float64) for k in g} if g else {}
             stored = {name: _attr(itf.file[name].attrs, "unit") for name in self.names}
-        from .quantities import ENERGY, unit
-
         self.units = {"t": "s", "x1": "m", **{name: stored[name] if stored[name] is not None else unit(name)
                                                for name in self.names}, **ENERGY}
 

@@ -12,6 +12,7 @@ uncertain ones.  Confidence: :func:`fricfem.analysis.modemap.confidence`.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from ..analysis.modemap import LOW_CONFIDENCE, boundary, cell_edges, tag
@@ -48,10 +49,6 @@ def math_text(text: str) -> str:
     for raw, tex in _SYMBOLS:
         text = text.replace(raw, tex)
     return text
-
-
-def _style(label):
-    return MARKERS[label if label in MARKERS else None]
 
 
 def _markers(ax, sigma0, v_imp, labels, conf) -> None:
@@ -157,6 +154,8 @@ def draw(ax, sigma0, v_imp, labels, title: str = "", conf=None, computed=None) -
 def figure(maps: dict, path: Path, note: str | None = None, suptitle: str | None = None) -> None:
     """``maps``: {title: (sigma0, v_imp, labels[, conf[, computed]])} → one panel each,
     a shared legend, ``note`` in small print under the legend."""
+    # matplotlib here and in the drawing helpers, not at the top: the sweep imports this module on every
+    # rank, and only rank 0 draws, once at the end (start-up time)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -200,8 +199,6 @@ def is_sweep(directory) -> bool:
 def sweep_maps(directory) -> dict:
     """{map folder name ('' for the scene's C): modemap.json document} of a sweep directory; a
     ValueError naming the directory when its map is not written yet (cheap: every rank may ask)."""
-    import json
-
     d = Path(directory)
     docs = {}
     for name in SWEEP_MAPS:
