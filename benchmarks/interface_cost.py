@@ -41,8 +41,8 @@ n, nsub, npts = 0, 0, 0
 while state.t < 32e-6:
     step(model, state)
     n += 1
-    nsub += int(model.interface.points.nsub.sum())
-    npts += len(model.interface.points.nsub)
+    nsub += int(state.points.nsub.sum())
+    npts += len(state.points.nsub)
 slowest = {k: comm.allreduce(v, op=MPI.MAX) for k, v in sorted(state.seconds.items())}
 # a bare K·u loop on the same matrix and vectors, for the ratio
 y = model.K.createVecRight()

@@ -343,8 +343,8 @@ class _Fused:
     def __init__(self, plates: Plates, dt: float):
         impact = Impact(np.zeros(0, dtype=np.int32), np.zeros(0), ImpactPulse())
         bulk = FusedBulk(plates.rows, dt / plates.mass, dt, None, impact, plates.K.createVecRight(), plates.comm)
-        # fricfem's State needs only these three of a Model
-        self.state = State(SimpleNamespace(K=plates.K, impact=impact, bulk=bulk), skip_quiet=False)
+        # fricfem's State needs only these four of a Model
+        self.state = State(SimpleNamespace(K=plates.K, impact=impact, bulk=bulk, interface=None), skip_quiet=False)
         self.bulk = bulk
 
     def arrays(self) -> tuple:

@@ -43,7 +43,7 @@ def arrays(x):
             yield from arrays(y)
 
 
-saved = [(x, x.copy()) for x in (*arrays(itf._state), *arrays(itf._const))]
+saved = [(x, x.copy()) for x in arrays(state.points.kernel_state())]  # the state's (the model's are read-only)
 
 
 def restore():
@@ -62,16 +62,17 @@ def best_us(fn, calls=200):
     return 1e6 * best
 
 
-sliding = int((itf.points.slip_rate > 0).sum())
+sliding = int((state.points.slip_rate > 0).sum())
 itf._gather(u)
 w = g.work.array
 res = {"copy": best_us(restore)}
-res["kernel"] = best_us(lambda: (restore(), itf.kernel(w, g.force.array, itf._geom, itf._const, itf._state, dt))) \
+res["kernel"] = best_us(lambda: (restore(), itf.kernel(w, g.force.array, itf._geom, itf._const,
+                                                           state.points.kernel_state(), dt))) \
     - res["copy"]
-res["advance"] = best_us(lambda: (restore(), itf.advance(u, dt))) - res["copy"]
+res["advance"] = best_us(lambda: (restore(), itf.advance(state, u, dt))) - res["copy"]
 res["gather"] = best_us(lambda: itf._gather(u))
 res["send"] = best_us(itf._send)
-rows = comm.gather((res, sliding, len(itf.points.slip_rate)), root=0)
+rows = comm.gather((res, sliding, len(state.points.slip_rate)), root=0)
 if comm.rank == 0:
     print(f"segments dealt in blocks of {a.seg_block}; µs per call, best of 5 × 200")
     for r, (d, sl, n) in enumerate(rows):

@@ -37,7 +37,7 @@ _, model = build_model(scene, comm)
 state = State(model)
 for _ in evolve(model, state, a.at):
     pass
-p = model.interface.points
+p = state.points
 sliding = comm.allreduce(int((p.slip_rate > 0).sum()), op=MPI.SUM)
 points = comm.allreduce(len(p.slip_rate), op=MPI.SUM)
 

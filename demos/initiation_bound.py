@@ -79,7 +79,7 @@ for k in sorted({c[3] for c in CASES.values()}):
     rows = []
     for st, _ in evolve(model, state, 45e-6):
         if st.n % 5 == 0:
-            rows.append((st.t, comm.allreduce(float(np.abs(model.interface.points.Ts).max(initial=0.0)),
+            rows.append((st.t, comm.allreduce(float(np.abs(st.points.Ts).max(initial=0.0)),
                                               op=MPI.MAX)))
     tau[k] = np.array(rows)
 

@@ -60,7 +60,7 @@ for kind, extra in KINDS.items():
         rows = []
         for st, _ in evolve(model, state, 45e-6):
             if st.n % 5 == 0:
-                ts = comm.allreduce(float(np.abs(model.interface.points.Ts).max(initial=0.0)), op=MPI.MAX)
+                ts = comm.allreduce(float(np.abs(st.points.Ts).max(initial=0.0)), op=MPI.MAX)
                 vsum = comm.allreduce(np.array([st.v.array_r[d].sum(), float(len(d))]))
                 rows.append((st.t, ts, vsum[0] / vsum[1]))
         response[(kind, k)] = np.array(rows)

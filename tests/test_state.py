@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 from fricfem import load_scene
 from fricfem.model.build import build_model
-from fricfem.step import State, evolve
+from fricfem.step import State, evolve, run
 
 #: scenes by what they exercise: the elastic interface (Povirk–Needleman), the
 #: rigid one (slip weakening), rate and state (aging), the experiment's bodies (contact)
@@ -159,3 +159,43 @@ def test_restore_names_what_does_not_fit(comm):
     del missing["t"]
     with pytest.raises(ValueError, match="'t' is missing"):
         st.restore(missing)
+
+
+class _Counting:
+    """A communicator that counts its Allreduce calls (the rest goes to ``comm``)."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.allreduces = 0
+
+    def Allreduce(self, *args, **kwargs):
+        self.allreduces += 1
+        return self.comm.Allreduce(*args, **kwargs)
+
+    def __getattr__(self, name):
+        return getattr(self.comm, name)
+
+
+def test_the_loop_reduces_once_a_step_whatever_its_observers(comm):
+    """The observers that need global values (the interface's look, the watchdog, the
+    signals, a flusher's wall clock) share the loop's one MAX-Allreduce a step in
+    named slots: N steps, N reductions; the stop reasons and the slots' values as
+    one reduction per observer would give them."""
+    from fricfem import observe
+
+    scene, model = _model("rigid", comm)
+    counting = _Counting(comm)
+    model = model._replace(comm=counting)
+    st = State(model)
+    look = observe.Look(model.interface.geometry.x1)
+    watchdog = observe.Watchdog(model, scene.watchdog, look, 0)
+    tip = observe.Tip(look, stop_at=0.0)
+    with observe.Signals() as signals:
+        stop = run(evolve(model, st, 40 * model.dt, 0, [look, watchdog, tip, signals]))
+    assert stop is None and st.n == 40
+    assert counting.allreduces == 40
+    # the tip over all ranks: what a reduction of its own gives
+    mine = st.points.slip_rate > 0
+    tip_own = comm.allreduce(float(model.interface.geometry.x1[mine].max(initial=-1.0)), op=MPI.MAX)
+    assert look.tip == tip_own and (tip_own > 0) == (len(tip.tip_x) > 0)
+    assert watchdog.stopped is None and watchdog.diverged is None

@@ -78,7 +78,7 @@ for k in sorted({c[3] for c in CASES.values()}):
     for s, _ in evolve(model, st, scene.t_end):
         g.record(s)
         if s.n % 5 == 0:
-            rows.append((s.t_interface, comm.allreduce(float(np.abs(model.interface.points.Ts).max(initial=0.0)),
+            rows.append((s.t_interface, comm.allreduce(float(np.abs(s.points.Ts).max(initial=0.0)),
                                                        op=MPI.MAX)))
     tau[k] = np.array(rows)
     edge[k] = g.result()
