@@ -47,7 +47,7 @@ Optional verbs (``None`` when a law does not provide them):
     and the time derivative of the state at that slip rate (ndarray, same
     length as the state).  Written from the equations, never by calling the
     numba integrators; used only by the independent scipy references
-    (:mod:`.reference`).  A law whose slip rate switches off below a threshold
+    (tests/reference/laws).  A law whose slip rate switches off below a threshold
     (stick) may also accept a keyword ``branch``: ``"slide"`` returns the
     smooth continuation of the sliding branch's v (negative below the
     threshold), ``"stick"`` the sticking branch (v = 0); the references locate
@@ -83,7 +83,7 @@ Optional verbs (``None`` when a law does not provide them):
     integrated to the middle of the step, against the traction extrapolated
     to t^{n+½} from Ts and the previous step's, which they keep in their memo:
     second order).  The block slider of
-    :func:`fricfem.friction.reference.drive_rigid` runs the verb in the same
+    ``drive_rigid`` of tests/reference/laws runs the verb in the same
     step and is scored against scipy (tests/test_point_reference.py,
     tests/test_rate_state.py).
 
@@ -211,6 +211,20 @@ def as_params(law: Law, params) -> np.ndarray:
 def pack(law: Law, values: dict) -> np.ndarray:
     """Pack a validated parameter dict into the float64 array ``advance`` reads."""
     return np.array([float(values[p.name]) for p in law.params], dtype=np.float64)
+
+
+def param_index(params: tuple, *names: str) -> tuple:
+    """The index in the packed array (:func:`pack`: the order of ``params``) of each
+    parameter named, for a law's module-level constants
+    (``MU_S, MU_D, DC = param_index(PARAMS, "mu_s", "mu_d", "Dc")``): numba reads
+    them as compile-time constants, and packing and the kernel agree by
+    construction — a reordered ``PARAMS`` moves the indices with it, a renamed or
+    missing parameter stops the import with its name."""
+    order = [p.name for p in params]
+    missing = [n for n in names if n not in order]
+    if missing:
+        raise ValueError(f"parameter(s) {', '.join(missing)} not among the law's PARAMS ({', '.join(order)})")
+    return tuple(order.index(n) for n in names)
 
 
 @numba.njit(cache=True)

@@ -39,10 +39,7 @@ import math
 import numba
 import numpy as np
 
-from .base import Param
-
-# Parameter indices in the packed array ``p`` (order of PARAMS).
-MU_S, MU_D, V0, V1, B, P, M, L0, L1, L2, C, D, THETA0_INIT, GAMMA, SUB_TOL, SUB_STIFF = range(16)
+from .base import Param, param_index
 
 PARAMS = (
     Param("mu_s", 0.6, "", 0.0, 1e4, "static friction coefficient μs (a large value locks a barrier)"),
@@ -67,6 +64,11 @@ PARAMS = (
     Param("substep_stiff", 2.0, "", 1e-3, 100.0,
           "largest h C_s ∂v/∂|T_s| per sub-step"),
 )
+
+# Parameter indices in the packed array ``p``, from PARAMS' names
+MU_S, MU_D, V0, V1, B, P, M, L0, L1, L2, C, D, THETA0_INIT, GAMMA, SUB_TOL, SUB_STIFF = param_index(
+    PARAMS, "mu_s", "mu_d", "V0", "V1", "B", "p", "m", "L0", "L1", "L2", "C", "D", "theta0_init", "gamma",
+    "substep_tol", "substep_stiff")
 
 STATE = ("theta0", "theta1", "theta2")
 

@@ -80,12 +80,9 @@ import math
 import numba
 import numpy as np
 
-from .base import Param, frictional_work, sign
+from .base import Param, frictional_work, param_index, sign
 
 AGING, SLIP = 0, 1
-
-# Parameter indices in the packed array (both laws; F_W, V_W: slip law only).
-A, B, L, V0, F0, V_INI, GAMMA, SUB_TOL, SUB_STIFF, F_W, V_W = range(11)
 
 COMMON_PARAMS = (
     Param("a", 0.008, "", 1e-5, 1.0, "direct-effect parameter a"),
@@ -104,6 +101,17 @@ COMMON_PARAMS = (
           "largest h C_s ∂V/∂|T_s| per sub-step (10: the trapezoidal rule damps a perturbation by 2/3 "
           "per sub-step at the limit)"),
 )
+#: The slip law's parameters (:mod:`.rate_state_slip`): the common ones and its strong rate weakening.
+SLIP_PARAMS = COMMON_PARAMS + (
+    Param("f_w", 0.2, "", 0.0, 5.0, "fully weakened friction coefficient of the strong rate weakening (TPV103)"),
+    Param("V_w", 1e10, "m/s", 1e-6, 1e10,
+          "weakening slip rate of the strong rate weakening (1e10: none below 1e8 m/s; TPV103: 0.1)"),
+)
+
+# Parameter indices in the packed array, from the names (both laws; F_W, V_W: slip law only, whose
+# PARAMS extend the aging law's)
+A, B, L, V0, F0, V_INI, GAMMA, SUB_TOL, SUB_STIFF, F_W, V_W = param_index(
+    SLIP_PARAMS, "a", "b", "L", "V0", "f0", "V_ini", "gamma", "substep_tol", "substep_stiff", "f_w", "V_w")
 
 STATE = ("psi",)
 # the rigid verb's memo: the previous step's traction T^{n−1} [Pa] and slip rate V^{n−½} [m/s], signed

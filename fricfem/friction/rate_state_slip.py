@@ -23,13 +23,9 @@ integrators: :mod:`.rate_state`.
 import numba
 
 from . import rate_state as rs
-from .base import Law, Param
+from .base import Law
 
-PARAMS = rs.COMMON_PARAMS + (
-    Param("f_w", 0.2, "", 0.0, 5.0, "fully weakened friction coefficient of the strong rate weakening (TPV103)"),
-    Param("V_w", 1e10, "m/s", 1e-6, 1e10,
-          "weakening slip rate of the strong rate weakening (1e10: none below 1e8 m/s; TPV103: 0.1)"),
-)
+PARAMS = rs.SLIP_PARAMS
 STATE = rs.STATE
 KIND = rs.SLIP
 

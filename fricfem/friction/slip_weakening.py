@@ -18,15 +18,16 @@ T_n = T_n(t + dt), if |T*| > μ(δ) T_n the slip dδ solves
 import numba
 import numpy as np
 
-from .base import Law, Param, frictional_work, sign
-
-MU_S, MU_D, DC = range(3)
+from .base import Law, Param, frictional_work, param_index, sign
 
 PARAMS = (
     Param("mu_s", 0.677, "", 0.0, 1e4, "static friction coefficient μs (a large value locks a barrier)"),
     Param("mu_d", 0.525, "", 0.0, 5.0, "dynamic friction coefficient μd (after slip Dc)"),
     Param("Dc", 0.40, "m", 1e-12, 100.0, "slip-weakening distance"),
 )
+
+# Parameter indices in the packed array, from PARAMS' names
+MU_S, MU_D, DC = param_index(PARAMS, "mu_s", "mu_d", "Dc")
 
 STATE = ("slip",)
 
