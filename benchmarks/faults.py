@@ -219,6 +219,10 @@ def _kill_and_check(p, out: Path, ref: Path, plot: bool, **when) -> dict:
     killed = kill_tree(p.pid)
     p.wait()
     res = {**when, "ended_before_kill": ended, "processes_killed": killed, **check(out, ref)}
+    if ended:  # the job ended on its own: why (its status and the end of what it printed)
+        log = out.parent / f"{out.name}.log"
+        res["job_status"] = p.returncode
+        res["job_log_tail"] = log.read_text()[-1500:] if log.is_file() else None
     if plot and (out / "interface.h5").exists():
         ok, why = plot_ok(out)
         res["plot"] = ok
@@ -250,7 +254,7 @@ def kill_at_rows(args, out: Path, ref: Path, rows: int, plot: bool = True, poll_
     was seen (None: the run ended first).  No clock: ``poll_s`` is only how often
     the file is looked at.  ``out`` is emptied first (see :func:`kill_once`)."""
     shutil.rmtree(out, ignore_errors=True)
-    p = start(args, out)
+    p = start(args, out, log=out.parent / f"{out.name}.log")
     seen = None
     while p.poll() is None:
         n = live_rows(out / "interface.h5")

@@ -80,9 +80,9 @@ def test_sigkill_at_random_points_leaves_readable_outputs(comm, tmp_dir_shared):
 
     kills = on_rank0(comm, work)
     for k in kills:
-        assert k["problems"] == [], k
-        assert not k["ended_before_kill"] and k["rows_seen"] is not None, k  # killed at its event, mid-run
-        assert k["rows"] >= k["rows_seen"] >= k["kill_at_rows"], k
+        assert k["problems"] == [], repr(k)
+        assert not k["ended_before_kill"] and k["rows_seen"] is not None, repr(k)  # killed at its event, mid-run
+        assert k["rows"] >= k["rows_seen"] >= k["kill_at_rows"], repr(k)
     assert all(k["rows"] > 0 for k in kills[1:])  # those kills landed in the loop
 
 
