@@ -63,9 +63,6 @@ FORMAT = 1
 MAGIC = b"FRICFEM CHECKPOINT\n"
 #: scene keys that do not change what a run computes or writes: left out of the scene key
 OUTPUT_ONLY = {"": ("description",), "output": ("checkpoint_every", "checkpoint_wall", "flush_every")}
-#: the interface points' arrays a step changes (fricfem.model.interface.Points)
-POINT_ARRAYS = ("state", "Tn", "Ts", "dTs", "jump_n", "jump_s", "rate_n", "rate_s", "slip", "slip_rate", "work",
-                "dissipated", "is_open", "nsub")
 
 _ROOT = Path(__file__).resolve().parents[1]
 _code = None
@@ -290,41 +287,13 @@ def _kind(name: str) -> str:
     raise CheckpointError(f"the state's {name!r} has no place in a checkpoint (an experiment's contact?)")
 
 
-def state_parts(model, state) -> dict:
-    """This rank's part of everything a step changes (:meth:`fricfem.step.State.snapshot`;
-    the same names for a state without it: the interface points of its model)."""
-    if hasattr(state, "snapshot"):
-        return state.snapshot()
-    out = {"u": state.u.array_r.copy(), "v": state.v.array_r.copy()}
-    out.update({k: getattr(state, k) for k in (*_GLOBAL, *_SHARES)})
-    out.update({k: np.array(getattr(state, k)) for k in ("u_imp_prev", "react_prev", "damp_prev", "act")})
-    points = getattr(state, "points", None) or model.interface.points
-    out.update({f"points.{a}": np.array(getattr(points, a)) for a in POINT_ARRAYS})
-    return out
-
-
-def _put_parts(model, state, d: dict) -> None:
-    """:meth:`fricfem.step.State.restore`, or the same by hand."""
-    if hasattr(state, "restore"):
-        state.restore(d)
-        return
-    state.u.array[:] = d["u"]
-    state.v.array[:] = d["v"]
-    for k in (*_GLOBAL, *_SHARES):
-        setattr(state, k, d[k])
-    for k in ("u_imp_prev", "react_prev", "damp_prev", "act"):
-        getattr(state, k)[...] = d[k]
-    for a in POINT_ARRAYS:
-        getattr(getattr(state, "points", None) or model.interface.points, a)[...] = d[f"points.{a}"]
-
-
 def snapshot(model, state, watchers: dict) -> tuple | None:
     """The run's state as (header fields, arrays) on rank 0, None elsewhere (collective).
     ``watchers``: the accumulators of the run's observers (:func:`observed`: JSON-able
     scalars under ``"meta"``, arrays under ``"arrays"``, per-point arrays under ``"points"``)."""
     comm = model.comm
     ids = _ids(model)
-    parts = state_parts(model, state)
+    parts = state.snapshot()  # this rank's part of everything a step changes (fricfem.step.State)
     items = [(k, v) for k, v in parts.items() if k not in _GLOBAL + _SHARES]
     items += [(f"points.watch.{k}", v) for k, v in watchers["points"].items()]
     arrays = {}
@@ -354,7 +323,7 @@ def restore(model, state, arrays: dict, header: dict) -> dict:
         raise CheckpointError(f"the checkpoint's step dt = {meta['dt']!r} s, this model's {model.dt!r} s (another "
                               "machine's or library's lambda_max): refusing to continue with another step")
     ids = _ids(model)
-    mine = state_parts(model, state)
+    mine = state.snapshot()
     d = {}
     for name, now in mine.items():
         if name in _GLOBAL:
@@ -370,7 +339,7 @@ def restore(model, state, arrays: dict, header: dict) -> dict:
             if name == "act":  # awake then: awake now; the rows this partition treats specially wake as at t = 0
                 value = np.maximum(value, model.bulk.activity(at_rest=True))
             d[name] = np.ascontiguousarray(value, dtype=np.asarray(now).dtype)
-    _put_parts(model, state, d)
+    state.restore(d)
     i = ids["point"][0]
     return {k[len("points.watch."):]: v[i] for k, v in arrays.items() if k.startswith("points.watch.")}
 
