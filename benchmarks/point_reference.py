@@ -7,7 +7,7 @@ stability of the Povirk–Needleman spring–slider.
 
 Writes ``benchmarks/results/point_reference.{json,md,png}`` (``--out`` changes the
 directory) and prints the tables.  Every reference is
-:mod:`fricfem.friction.reference`: Radau (rtol 1e-11 unless said) on the laws'
+tests/reference/laws: Radau (rtol 1e-11 unless said) on the laws'
 continuous equations, exact piecewise solutions for slip weakening.
 
 1. Ladders of bulk steps (200 … 5 ns) of ``advance`` for each law and regime
@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -36,8 +37,10 @@ from fricfem.friction import defaults, get_law, pack, validate
 from fricfem.friction import povirk_needleman as pn
 from fricfem.friction import povirk_needleman_rate_tangent as rt
 from fricfem.friction import rate_state as rs
-from fricfem.friction import reference as ref
 from fricfem.friction.driver import drive_jump_rate, ramp_jump, step_rates
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the scipy references (tests/reference)
+from reference import laws as ref  # noqa: E402
 
 MPa = 1e6
 CS = 1e11
@@ -364,7 +367,7 @@ def markdown(doc):
          f"`.venv/bin/python benchmarks/point_reference.py` — {doc['seconds']:.0f} s on {doc['host']}, "
          f"{doc['date']}" + (f" (section 3, the rigid verb: `--only-rigid`, {doc['rigid_date']})"
                              if "rigid_date" in doc else "")
-         + ". Errors of T_s relative to T_n; references: `fricfem/friction/reference.py`.", ""]
+         + ". Errors of T_s relative to T_n; references: `tests/reference/laws/`.", ""]
     L += ["## Ladders of bulk steps (`advance`)", ""]
     for c in doc["ladders"]:
         L += [f"### {c['case']}", ""]

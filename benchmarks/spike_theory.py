@@ -4,7 +4,7 @@
 # Povirk–Needleman point on the elastic interface is bounded over any finite
 # time (docs/friction_reference.md §4).  The docs quote three things; each is
 # computed from Table 1 (C_s = 10¹¹ Pa/m) and checked here against an exact
-# integration of the point (fricfem/friction/reference: scipy Radau on the
+# integration of the point (tests/reference/laws: scipy Radau on the
 # law's continuous equations, rtol 1e-10 or tighter):
 #
 # 1. **Transient growth.**  While sliding, v̇ > 0 only while
@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -36,7 +37,9 @@ import numpy as np
 
 from fricfem.friction import defaults, get_law, pack
 from fricfem.friction import povirk_needleman as pn
-from fricfem.friction import reference as ref
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the scipy references (tests/reference)
+from reference import laws as ref  # noqa: E402
 
 MPa = 1e6
 CS = 1e11
@@ -119,7 +122,7 @@ def markdown(doc: dict) -> str:
     return f"""# Slip-rate spikes of the Povirk–Needleman spring–slider
 
 `.venv/bin/python benchmarks/spike_theory.py` ({doc['seconds']:.0f} s); Table 1, C_s = 10¹¹ Pa/m, exact
-integration by `fricfem.friction.reference.spring_slider` (Radau).
+integration by `reference.laws.spring_slider (tests/reference/laws)` (Radau).
 
 - **Transient growth floor** m L0 C_s/B = **{doc['growth_floor_MPa']:.3f} MPa** (the old bound m L0 C_s =
   {doc['old_bound_m_L0_Cs_MPa']:.3g} MPa drops B). In the onsets below, a run whose |T_s| stays under the

@@ -50,8 +50,9 @@
 # Interface snapshots are taken every step (``output.interface_every`` below
 # the step), so the peak slip rate is the largest over every step.
 #
-# Run (parallel over points: each rank runs its share on ``MPI.COMM_SELF``;
-# resumable — a point whose ``record.json`` matches is not run again)::
+# Run (parallel over points by fricfem's batch runner, :mod:`fricfem.batch`:
+# each rank takes the next point, heaviest first, as it frees up; resumable —
+# a point whose ``job.json`` holds a record of the same inputs is not run again)::
 #
 #     mpirun -n 2 .venv/bin/python benchmarks/stability.py
 #
@@ -63,7 +64,6 @@
 from __future__ import annotations
 
 import argparse
-import gc
 import json
 import math
 import os
@@ -76,7 +76,7 @@ import numpy as np
 from mpi4py import MPI
 
 from fricfem import load_scene, open_run
-from fricfem import runner
+from fricfem import batch, runner
 from fricfem.model.build import build_model
 from fricfem.observe import energy_scale
 from fricfem.scene import SceneError
@@ -94,9 +94,9 @@ ROOT = HERE.parent
 
 # ## One point
 #
-# The run directory keeps ``record.json`` next to the run's own files; it is
-# removed before the point runs and written after it, so a killed point is
-# rerun on resume.
+# The batch runner keeps the point's record in ``job.json`` next to the run's
+# own files; it is removed before the point runs and written after it, so a
+# killed point is rerun on resume.
 
 
 def finite_check(rundir: Path) -> dict:
@@ -157,8 +157,8 @@ def _energy_finite(summary: dict) -> bool:
     return all(math.isfinite(v) for v in e.values() if isinstance(v, (int, float)))
 
 
-def run_point(pt: dict, work: Path, t_end: float) -> dict:
-    """Run one point on ``MPI.COMM_SELF``; its record (outcome, peak slip rate, steps, wall)."""
+def run_point(pt: dict, work: Path, t_end: float, comm=MPI.COMM_SELF) -> dict:
+    """Run one point on ``comm`` (a batch group's); its record (outcome, peak slip rate, steps, wall)."""
     key = key_of(pt)
     d = work / "points" / key
     base = load_scene(BASE)
@@ -172,14 +172,13 @@ def run_point(pt: dict, work: Path, t_end: float) -> dict:
     except SceneError as err:
         return rec | {"outcome": f"rejected: {err}", "kind": "rejected", "wall_s": time.perf_counter() - t0}
     d.mkdir(parents=True, exist_ok=True)
-    (d / "record.json").unlink(missing_ok=True)
     try:
         if pt.get("dt_factor"):
-            _, model = build_model(scene, MPI.COMM_SELF)
+            _, model = build_model(scene, comm)
             rec["dt_crit_s"] = model.dt_crit
             scene = load_scene(BASE, items + [f"time.dt={pt['dt_factor'] * model.dt_crit!r}", "time.allow_unstable_dt=true"])
             del model
-        summary = runner.run_scene(scene, d, MPI.COMM_SELF, overwrite=True, quiet=True)
+        summary = runner.run_scene(scene, d, comm, overwrite=True, quiet=True)
         rec.update(steps=summary["steps"], t_stop_s=summary["t_s"], dt_s=summary["dt_s"],
                    dt_crit_s=summary["dt_crit_s"], mode=(summary.get("mode") or {}).get("label"),
                    run_wall_s=summary["wall_s"]["total"])
@@ -210,14 +209,13 @@ def run_point(pt: dict, work: Path, t_end: float) -> dict:
     except Exception as err:  # one failing point must not stop the study (nor leave ranks waiting)
         rec.update(outcome=f"error: {type(err).__name__}: {err}", kind="error")
     rec["wall_s"] = time.perf_counter() - t0
-    # runs on COMM_SELF leave PETSc objects to the garbage collector: free them now
-    gc.collect()
-    petsc = sys.modules.get("petsc4py.PETSc")
-    if petsc is not None and hasattr(petsc, "garbage_cleanup"):
-        petsc.garbage_cleanup(MPI.COMM_SELF)
-    if rec["outcome"] != "error: interrupted (SIGTERM)":
-        (d / "record.json").write_text(json.dumps(rec | {"point": _identity(pt, t_end)}, indent=1))
     return rec
+
+
+def _settled(rec: dict) -> bool:
+    """Whether a point's record is kept for the next call (``job.json``): not a rejected
+    scene (checked again, cheaply) nor a run interrupted by SIGTERM."""
+    return rec["kind"] != "rejected" and rec["outcome"] != "error: interrupted (SIGTERM)"
 
 
 #: Bumped whenever a record's fields change, so older records are recomputed.
@@ -229,15 +227,19 @@ def _identity(pt: dict, t_end: float) -> dict:
             "version": RECORD_VERSION}
 
 
+def job_of(pt: dict, work: Path, t_end: float) -> batch.Job:
+    """The point as a job of the batch runner: its run directory, cost and identity (its
+    factors, the end time and :data:`RECORD_VERSION`; the scene is loaded when it runs)."""
+    return batch.Job(key_of(pt), work / "points" / key_of(pt), None, expected_cost(pt), _identity(pt, t_end))
+
+
 def stored(pt: dict, work: Path, t_end: float) -> dict | None:
-    """The point's earlier record if it was computed with the same inputs."""
-    try:
-        rec = json.loads((work / "points" / key_of(pt) / "record.json").read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
+    """The point's earlier record (its ``job.json``) if it was computed with the same inputs."""
+    job = job_of(pt, work, t_end)
+    s = batch.stored(job)
+    if s is None or not batch.same_identity(s.get("identity"), job.ident()) or not isinstance(s.get("record"), dict):
         return None
-    if rec.pop("point", None) != _identity(pt, t_end):
-        return None
-    return rec | {"parts": pt["parts"]}
+    return s["record"] | {"parts": pt["parts"]}
 
 
 # ## Summaries
@@ -372,30 +374,30 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     t0 = time.perf_counter()
 
     todo = reused = None
+    points = {key_of(pt): pt for pt in design(args.smoke)}
     if comm.rank == 0:
-        points = design(args.smoke)
         reused = {}
         todo = []
-        for pt in points:
+        for key, pt in points.items():
             rec = None if args.fresh else stored(pt, args.work, t_end)
             if rec is not None:
-                reused[rec["key"]] = rec
+                reused[key] = rec
             else:
-                todo.append(pt)
-        todo.sort(key=lambda p: -expected_cost(p))
+                todo.append(job_of(pt, args.work, t_end))
         if not args.quiet:
             print(f"stability: {len(points)} points, {len(reused)} reused, {len(todo)} to run on "
                   f"{comm.size} rank(s)", file=sys.stderr, flush=True)
     todo = comm.bcast(todo, root=0)
-    mine = todo[comm.rank::comm.size]
-    done = []
-    for i, pt in enumerate(mine):
-        rec = run_point(pt, args.work, t_end)
-        done.append(rec)
-        if comm.rank == 0 and not args.quiet:
-            print(f"[{i + 1}/{len(mine)}] {rec['key']}: {rec['outcome'][:110]} ({rec['wall_s']:.2f} s)",
-                  file=sys.stderr, flush=True)
-    gathered = comm.gather(done, root=0)
+    log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    results = batch.run_jobs(todo, comm, work=lambda job, c: run_point(points[job.key], args.work, t_end, c),
+                             log=log, finished=_settled)
+    gathered = None
+    if comm.rank == 0:  # a point whose work raised past run_point's own guard: an error record
+        gathered = [[r.record or {"key": r.key, **{f: points[r.key][f] for f in FACTORS},
+                                  "dt_factor": points[r.key].get("dt_factor"), "parts": points[r.key]["parts"],
+                                  "t_end_s": t_end, "outcome": f"error: {r.error}", "kind": "error",
+                                  "wall_s": r.wall_s, "peak_slip_rate_m_s": None, "mode": None}
+                     for r in results]]
 
     doc = failure = None
     if comm.rank == 0:

@@ -1,4 +1,4 @@
-"""fricfem's point integrators against independent references (fricfem/friction/reference.py):
+"""fricfem's point integrators against independent references (tests/reference/laws):
 scipy's Radau solutions of each law's continuous equations (``law.rates``), exact
 slip-weakening solutions, and the rigid block for the ``rigid`` verb.
 
@@ -16,7 +16,7 @@ from fricfem.friction import defaults, get_law, pack, validate
 from fricfem.friction import povirk_needleman as pn
 from fricfem.friction import povirk_needleman_rate_tangent as rt
 from fricfem.friction import rate_state as rs
-from fricfem.friction import reference as ref
+from reference import laws as ref
 from fricfem.friction.base import storage
 from fricfem.friction.driver import drive_jump_rate, ramp_jump, step_rates
 

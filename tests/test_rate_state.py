@@ -15,7 +15,7 @@ from numba.core.caching import NullCache
 from fricfem.friction import LAWS, defaults, get_law, pack, validate
 from fricfem.friction import rate_state as rs
 from fricfem.friction import rate_state_aging, rate_state_slip
-from fricfem.friction import reference as ref
+from reference import laws as ref
 from fricfem.friction.base import storage
 from fricfem.friction.driver import drive_jump_rate, drive_slip_rate
 

@@ -1,6 +1,6 @@
 """Second order in time of the rigid (split-node) verbs of the rate-dependent
 laws (issue 26): the block slider run through fricfem's split-node step
-(:func:`fricfem.friction.reference.drive_rigid`) against scipy's Radau at tight
+(:func:`reference.laws.drive_rigid`) against scipy's Radau at tight
 tolerances, at five steps (four halvings), on problems the verbs were not tuned
 on (a stress step, a velocity step, a stick-slip pulse); and creep, where the
 law is stiff against the block's inertia, settles with no step-to-step
@@ -13,7 +13,7 @@ import pytest
 
 from fricfem.friction import get_law
 from fricfem.friction import rate_state as rs
-from fricfem.friction import reference as ref
+from reference import laws as ref
 from fricfem.friction.base import as_params
 
 MPa = 1e6

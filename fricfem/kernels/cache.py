@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 
 _ROOT = Path(__file__).resolve().parents[1]
-_DIRS = ("kernels", "friction", "friction/reference")
+_DIRS = ("kernels", "friction")
 _STAMP = "fricfem-numba-sources.sha256"
 _done = False
 

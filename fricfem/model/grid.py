@@ -221,11 +221,3 @@ def write_msh(spec, path: str) -> None:
         gmsh.write(path)
     finally:
         gmsh.finalize()
-
-
-def estimate_quads(spec) -> float:
-    """Number of quadrilaterals of both plates (without building the grid)."""
-    nx = len(axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ()))
-    ny = len(axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size,
-                        (spec.impact_b,)))
-    return 2.0 * (nx - 1) * (ny - 1)

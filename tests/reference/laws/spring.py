@@ -8,7 +8,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..base import Law, as_params
+from fricfem.friction import slip_weakening as sw
+from fricfem.friction.base import Law, as_params
 from .common import Reference, const, has_branch, mode_at, dense_peak, segments, sgn, traction_at_rate  # noqa: F401
 
 
@@ -90,8 +91,6 @@ def spring_slider(law: Law, params, t, jump_rate: Callable, Tn, Cs: float, Ts0: 
 
 
 def _sw_params(params):
-    from .. import slip_weakening as sw
-
     p = as_params(sw.LAW, params)
     return p[sw.MU_S], p[sw.MU_D], p[sw.DC]
 

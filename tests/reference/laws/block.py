@@ -10,7 +10,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..base import Law, as_params
+from fricfem.friction.base import Law, as_params, storage
 from .common import Reference, const, has_branch, mode_at, dense_peak, segments, sgn, traction_at_rate  # noqa: F401
 from .spring import _sw_params
 
@@ -255,8 +255,6 @@ def drive_rigid(law: Law, params, t, force: Callable, mass: float, Tn, V_init: f
     Returns (V, friction traction, slip, work, state, iterations): V[k] = V^{k+½}
     at (t[k] + t[k+1])/2, the traction T[k] = T^k at t[k] and the iterations of
     step k (each len(t) − 1); the slip, the work and the state at ``t``."""
-    from ..base import storage
-
     p = as_params(law, params)
     t = np.asarray(t, dtype=np.float64)
     Tn_f = const(Tn)

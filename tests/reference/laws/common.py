@@ -10,7 +10,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from ..base import Law
+from fricfem.friction.base import Law
 
 
 class Reference(NamedTuple):
