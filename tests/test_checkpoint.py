@@ -49,7 +49,7 @@ CASES = [
      ["rupture_sw", *COARSE, "--set", "interface.kind='rigid'", "--set", "time.end=150e-6",
       "--set", "output.fields=[50e-6,120e-6]", "--set", "output.checkpoint_every=10e-6"]),
     ("rate_state_aging-rigid", 2, 2,
-     ["rsf_aging_2d", "--set", "mesh.dx=5e-4", "--set", "mesh.dy=5e-4", "--set", "mesh.max_size=0.005",
+     ["rsf_aging_2d", "--set", "mesh.dx=8e-4", "--set", "mesh.dy=8e-4", "--set", "mesh.max_size=0.005",
       "--set", "time.end=40e-6", "--set", "output.gauges={g1=[0.035,0.004]}",
       "--set", "output.checkpoint_every=5e-6"]),
     # killed on 2 ranks, resumed on 1: the later field snapshots in the order of the run's mesh.h5 (2 ranks')
