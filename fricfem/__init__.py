@@ -14,7 +14,8 @@ The Python API (docs/api.md; a tour: demos/api_tour.py):
     run.slip_rate, run.t, run.x1, run.units["slip_rate"], run.gauges
     fricfem.register_law(my_law)                                 # a friction law of your own
 
-Importing fricfem loads nothing heavy; each function imports what it needs.
+Importing fricfem loads nothing heavy; each function imports what it needs, inside it
+(start-up time: the imports there are the only ones of the package, on purpose).
 """
 
 __version__ = "0.1.0"

@@ -3,6 +3,9 @@
 Every sub-command works under ``mpirun -n N``; only rank 0 prints.  Bad input
 (a scene, a ``--set``, an argument) ends every rank with status 2 and one
 line ``fricfem: error: ...`` from rank 0, before any mesh is built.
+
+Each command imports what it needs inside its function, not here at the top:
+start-up time (``fricfem scenes`` or ``fricfem show`` load neither MPI nor dolfinx).
 """
 
 from __future__ import annotations
