@@ -48,6 +48,7 @@ import io
 import json
 import math
 import os
+import sys
 import time
 from pathlib import Path
 from typing import NamedTuple
@@ -55,6 +56,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .directory import RunDirError
+from .record import read_summary
 
 #: the checkpoint's file name in the run directory
 CHECKPOINT_FILE = "checkpoint.fricfem"
@@ -88,7 +90,7 @@ def code_version() -> str:
 def scene_key(scene) -> str:
     """SHA-256 of what determines a run: the resolved input without :data:`OUTPUT_ONLY`
     keys, and :func:`fricfem.model.reuse.model_key` (the mesh, material, interface...)."""
-    from ..model.reuse import model_key
+    from ..model.reuse import model_key  # here: it loads dolfinx, which reading a header does not need
 
     raw = {}
     for sec, value in scene.raw.items():
@@ -212,8 +214,6 @@ def check_resume(out: Path, comm, scene=None) -> dict:
     header = problem = None
     if comm.rank == 0:
         try:
-            from .record import read_summary
-
             summary = read_summary(out) if (Path(out) / "summary.json").is_file() else {}
             if summary.get("complete"):
                 raise CheckpointError(f"--resume {str(out)!r}: the run there is complete (t = "
@@ -535,6 +535,9 @@ def resume_observed(out: Path, header: dict, aside: dict, model, state, w: Watch
     point_arrays = restore(model, state, arrays, header)
     restore_observed(w, header, arrays, point_arrays)
     _reopen_files(out, header, aside, model.comm, w.rec, w.writer, w.gauges)
+    if model.comm.rank == 0:
+        sys.stderr.write(f"fricfem: {str(out)!r} goes on from its checkpoint at step {state.n} (t = "
+                         f"{state.t * 1e6:.6g} µs; written on {header['ranks']} rank(s), {header.get('written')})\n")
 
 
 def _reopen_files(out: Path, header: dict, aside: dict, comm, rec, writer, gauges) -> None:
