@@ -26,7 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
-os.environ["FRICFEM_CACHE"] = "off"  # a cold set-up: λmax and K's rows computed
+if "--warm" not in os.sys.argv:
+    os.environ["FRICFEM_CACHE"] = "off"  # a cold set-up: λmax and K's rows computed
 
 from mpi4py import MPI  # noqa: E402
 
@@ -56,6 +57,8 @@ def main() -> None:
     ap.add_argument("--absorbing", action="store_true", help="all four outer edges absorbing")
     ap.add_argument("--end", type=float, default=2e-6, help="time.end [s] of the short loop")
     ap.add_argument("--out", default=str(RESULTS / "memory.jsonl"))
+    ap.add_argument("--warm", action="store_true", help="keep the set-up cache on (λmax and K's rows from "
+                    "$FRICFEM_CACHE when a run has put them there)")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     sets = [f"mesh.dx={args.h}", f"mesh.dy={args.h}", f"interface.kind='{args.kind}'", f"time.end={args.end}",
@@ -95,7 +98,7 @@ def main() -> None:
                             info.get("before_lam_hwm", 0)), root=0)
     if comm.rank == 0:
         row = {"scene": args.scene, "h_m": args.h, "band_m": args.band, "kind": args.kind,
-               "absorbing": args.absorbing, "ranks": comm.size, "quads": est.quads, "dofs": record["dofs"],
+               "absorbing": args.absorbing, "warm": args.warm, "ranks": comm.size, "quads": est.quads, "dofs": record["dofs"],
                "interface_points": record["interface_points"], "steps": record["steps"],
                "import_bytes": sum(r[0] for r in per_rank),
                "before_lam_peak_bytes": sum(r[5] for r in per_rank), "setup_peak_bytes": sum(r[1] for r in per_rank),
