@@ -352,3 +352,19 @@ def test_field_order_of_another_partition():
     assert np.array_equal(p_cell[cells], np.arange(90))  # cell k of the file is new cell cells[k]
     with pytest.raises(ValueError, match="not this mesh's"):
         _matching((new_nodes[1:], new_cells), x, topology)
+
+
+def test_an_experiment_resumes(comm, tmp_dir_shared, capsys):
+    """The experiment's bodies (the projectile against its buffer: the contact's node
+    pairs in the state, by pair) checkpoint and resume to the same bits; a
+    checkpoint interval that would never write one is refused in one line."""
+    sets = ["mesh.preset='coarse'", "time.end=10e-6", "output.checkpoint_every=2e-6", "output.fields=[3e-6,8e-6]"]
+    scene = load_scene("experiment_mode_pulse", sets)
+    runner.run_scene(scene, tmp_dir_shared / "full", comm, quiet=True)
+    _cut(scene, tmp_dir_shared / "cut", comm, 60)
+    assert runner.run_scene(scene, tmp_dir_shared / "cut", comm, quiet=True, resume=True)["complete"]
+    assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []
+    _one_error(capsys, ["run", "case3", "--set", "mesh.preset='coarse'", "--set", "time.end=4e-6", "--set",
+                        "output.fields=[]", "--set", "output.checkpoint_every=5e-6", "--out",
+                        str(tmp_dir_shared / "never"), "--quiet"],
+               "output.checkpoint_every = 5e-06 s", "no checkpoint would be written")

@@ -110,10 +110,11 @@ def enabled(scene) -> bool:
 
 
 def check_scene(scene) -> None:
-    """Refuse checkpoints for what they do not cover (before heavy work)."""
-    if enabled(scene) and getattr(scene, "experiment", None) is not None:
-        raise CheckpointError("output.checkpoint_every / output.checkpoint_wall: not available with an "
-                              "[experiment] (its projectile's contact state is not checkpointed); set both to 0")
+    """Refuse, before heavy work, a checkpoint cadence that would never write one."""
+    every = float(scene.output.get("checkpoint_every", 0.0) or 0.0)
+    if every >= scene.t_end:
+        raise CheckpointError(f"output.checkpoint_every = {every:g} s: not below time.end = {scene.t_end:g} s, so "
+                              "no checkpoint would be written; use a shorter interval, or 0 for none")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -249,7 +250,10 @@ def _ids(model) -> dict:
         points = np.asarray(geom.pairs, dtype=np.int64)
         n_points = len(geom.x1_nodes)
     n_grid = len(num.x)
-    return {
+    contact = getattr(itf, "contact", None)  # the experiment's projectile against its buffer: node pairs
+    ids = {} if contact is None else {"contact": (np.asarray(contact.geometry.pairs, dtype=np.int64),
+                                                  len(contact.geometry.x1_nodes))}
+    return {**ids,
         "dof": ((2 * owned[:, None] + np.arange(2)[None, :]).ravel(), 2 * n_grid),
         "node": (owned, n_grid),
         "struck": (2 * num.node_of_block[dofs // 2] + dofs % 2, 2 * n_grid),
@@ -275,7 +279,7 @@ def _gather(comm, ids, values, n):
 
 #: what kind of index each of a state's per-rank arrays has (:func:`_ids`), by name or prefix
 _KINDS = {"u": "dof", "v": "dof", "u_imp_prev": "struck", "react_prev": "struck", "damp_prev": "damped",
-          "act": "node", "points.": "point"}
+          "act": "node", "points.": "point", "contact.": "contact"}
 #: a state's scalars: the same on every rank, and each rank's own share (an energy)
 _GLOBAL, _SHARES = ("t", "t_interface", "n"), ("work_ext", "absorbed")
 
@@ -284,7 +288,7 @@ def _kind(name: str) -> str:
     for key, kind in _KINDS.items():
         if name == key or (key.endswith(".") and name.startswith(key)):
             return kind
-    raise CheckpointError(f"the state's {name!r} has no place in a checkpoint (an experiment's contact?)")
+    raise CheckpointError(f"the state's {name!r} has no place in a checkpoint")
 
 
 def snapshot(model, state, watchers: dict) -> tuple | None:
