@@ -445,7 +445,7 @@ def _write(args, gathered, reused, t_end, ranks, t0) -> dict:
         "gamma_dt_loadings": [list(x) for x in GAMMA_DT_LOADINGS], "sigma_v_k": list(SIGMA_V_K),
         "lhs": {"points": LHS_POINTS, "seed": LHS_SEED},
         "unstable_factors": list(UNSTABLE_FACTORS), "unstable_loadings": [list(x) for x in UNSTABLE_LOADINGS],
-        "spike_threshold_m_s": base.watchdog["max_slip_rate"] or base.material.c_l,  # 0: the material's c_l
+        "spike_threshold_m_s": base.watchdog.max_slip_rate,  # resolved by the scene: 0 written is c_l
         "counts": counts(design_recs), "unstable_counts": counts(unstable),
         "per_level": per_level(design_recs),
         "gamma_dt": gamma_dt(by_key, c_l),

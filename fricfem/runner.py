@@ -98,7 +98,7 @@ def _check_step(scene: Scene, model, comm) -> None:
                          "mesh and interface; use time.dt_safety in (0, 1) (or set "
                          "time.allow_unstable_dt = true for a stability experiment)")
     if comm.rank == 0:
-        then = ("the watchdog will stop the run if it diverges" if scene.watchdog["enabled"] else
+        then = ("the watchdog will stop the run if it diverges" if scene.watchdog.enabled else
                 "a divergence marks the run diverged, never complete (watchdog.enabled = false: not stopped)")
         sys.stderr.write(f"fricfem: warning: time.dt = {model.dt:.3g} s exceeds the stable step "
                          f"{model.dt_crit:.3g} s; {then}\n")
@@ -113,8 +113,8 @@ def _summary(scene: Scene, pm, model, comm) -> dict:
         "dt_s": model.dt, "dt_crit_s": model.dt_crit, "steps": 0, "t_end_s": scene.t_end,
         "speeds": scene.material.speeds(), "input": scene.raw,
         # what fricfem plot needs for the isochromatic frames (output.frames, thickness, f_sigma)
-        "photoelastic": {"thickness_m": scene.output["thickness"], "f_sigma_N_per_m": scene.output["f_sigma"],
-                         "frames_s": frame_times(scene.output["frames"])},
+        "photoelastic": {"thickness_m": scene.output.thickness, "f_sigma_N_per_m": scene.output.f_sigma,
+                         "frames_s": frame_times(scene.output.frames)},
     }
 
 
@@ -234,8 +234,8 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
         from .model.bodies import launch
 
         launch(model, state)
-    every = max(1, int(round(scene.output["interface_every"] / model.dt)))  # steps between interface snapshots
-    rows = planned_rows(n_steps(model, scene.t_end), every, scene.output["energy_every"])
+    every = max(1, int(round(scene.output.interface_every / model.dt)))  # steps between interface snapshots
+    rows = planned_rows(n_steps(model, scene.t_end), every, scene.output.energy_every)
     rec = Recorder(out / INTERFACE_FILE, scene, model, summary["speeds"], rows, state.points)
     writer = _field_writer(scene, model, out)
     t_setup = time.perf_counter() - t_start
@@ -248,7 +248,7 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     timing = Timing(observe.LOOP_PARTS)
     t_loop0 = time.perf_counter()
     with obs.signals:  # SIGTERM and SIGINT end the run cleanly: the summary finalised, the files compacted
-        stop = run(evolve(model, state, scene.t_end, scene.output["energy_every"], obs.order, timing=timing,
+        stop = run(evolve(model, state, scene.t_end, scene.output.energy_every, obs.order, timing=timing,
                           end_energy=True))
     loop_wall = time.perf_counter() - t_loop0
     wall = {"setup": t_setup, "first_step_incl_jit": timing.first_step_s or 0.0,
@@ -258,7 +258,7 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
 
 def _field_writer(scene: Scene, model, out: Path):
     """The field snapshots' writer (output.fields and the isochromatic frames), or None."""
-    if not (scene.output["fields"] or scene.output["frames"]):
+    if not (scene.output.fields or scene.output.frames):
         return None
     from .output.fields import FieldWriter
 
@@ -296,18 +296,18 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
     from .friction import BUILT_IN
 
     law_watch = None if model.interface.law.name in BUILT_IN else observe.LawWatch(model.interface, state.points)
-    watchdog = observe.Watchdog(model, scene.watchdog, look, scene.output["energy_every"], law_watch)
+    watchdog = observe.Watchdog(model, scene.watchdog, look, scene.output.energy_every, law_watch)
     spikes = observe.Spikes(observe.spike_threshold(scene), comm, look)  # reported, never a stop
     tip = observe.Tip(look, scene.stop_at_tip)
-    energies = observe.Energies(rec, scene.output["energy_every"], n_steps(model, scene.t_end))
+    energies = observe.Energies(rec, scene.output.energy_every, n_steps(model, scene.t_end))
     snapshots = observe.Snapshots(rec, every)
     order = [observe.Stations(rec), look, watchdog, spikes, tip, energies, snapshots]
     if writer is not None:
-        steps = field_steps(list(scene.output["fields"]) + frame_times(scene.output["frames"]), model.dt,
+        steps = field_steps(list(scene.output.fields) + frame_times(scene.output.frames), model.dt,
                             scene.t_end)
         order.append(observe.Fields(writer, steps))
     gauges = None
-    if scene.output["gauges"]:
+    if scene.output.gauges:
         gauges = GaugeWriter(out / GAUGES_FILE, scene, model)
         order.append(observe.Gauges(gauges, state))
 
@@ -315,7 +315,7 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
         summary.update(steps=st.n, t_s=st.t, initiation=tip.initiation, slip_rate_spike=spikes.report())
         return record_texts(out, summary)
 
-    flusher = observe.Flusher(rec, snapshots, gauges, scene.output["flush_every"], comm, so_far)
+    flusher = observe.Flusher(rec, snapshots, gauges, scene.output.flush_every, comm, so_far)
     signals = observe.Signals()
     order += [flusher, signals]
     if checkpoint.enabled(scene):  # after the flusher and the signals (a stop by a signal takes one too)
@@ -372,7 +372,7 @@ def _finish(run_: Finish, stop: str | None, wall: dict, t_start: float) -> dict:
     summary["slip_rate_spike"] = done["slip_rate_spike"]
     if comm.rank == 0 and diverged:
         sys.stderr.write(f"fricfem: warning: {diverged}\n")
-    if comm.rank == 0 and scene.output["diagnostics"] and not stopped and not diverged:
+    if comm.rank == 0 and scene.output.diagnostics and not stopped and not diverged:
         try:
             summary.update(_diagnose(rec, obs.tip.tip_t, obs.tip.tip_x, summary["speeds"], run_.every))
         except Exception as err:  # keep the run's outputs; say what failed

@@ -21,9 +21,9 @@ from ..kernels.watch import look
 
 
 def spike_threshold(scene) -> float:
-    """The slip rate above which a spike is reported [m/s]: ``watchdog.max_slip_rate``,
-    or the material's c_l when it is 0 (the default)."""
-    return scene.watchdog["max_slip_rate"] or scene.material.c_l
+    """The slip rate above which a spike is reported [m/s]: ``watchdog.max_slip_rate``, which
+    the scene's validation resolved (0 written: the material's c_l; fricfem.scene.settings)."""
+    return scene.watchdog.max_slip_rate
 
 
 class Look:

@@ -93,7 +93,7 @@ class Recorder:
         self.rows = dict(rows)
         # stations: nearest Gauss point; its owner records every step
         self.stations = {}
-        for name, xs in scene.output["stations"].items():
+        for name, xs in scene.output.stations.items():
             k = int(np.argmin(np.abs(self.x1 - xs)))
             xq = self.x1[k]
             local = np.flatnonzero(geom.x1 == xq)

@@ -315,8 +315,8 @@ def estimate(scene, ranks: int = 1) -> Estimate:
     ratio = scene.t_end / dt_low if dt_low > 0 else math.inf
     steps = float(math.floor(ratio + 1e-9)) if math.isfinite(ratio) else math.inf
     points = nx + 1.0 if scene.interface_kind == "rigid" else 4.0 * nx  # node pairs or Gauss points
-    snaps = min(steps, scene.t_end / scene.output["interface_every"]) + 1
-    stations = len(scene.output["stations"])
+    snaps = min(steps, scene.t_end / scene.output.interface_every) + 1
+    stations = len(scene.output.stations)
     out = 8.0 * (snaps * points * _QUANTITIES + (steps + 1) * stations * _QUANTITIES)
     mem = memory_bytes(quads, ranks, 8.0 * snaps * points * _QUANTITIES)
     return Estimate(quads, nodes, 2 * nodes, points, (hx, hy), crit, dt_low, dt_high, bool(scene.dt), steps,
