@@ -202,6 +202,8 @@ def _check_text(scene, est, ranks: int = 1) -> str:
         f"steps: at most {est.steps:,.0f} to time.end = {scene.t_end:g} s; {est.dof_steps:.3g} dof·steps "
         f"(time loop roughly {est.dof_steps / cost.RATE / ranks:.3g} s on {ranks} rank(s)); interface output "
         f"about {est.output_bytes / 1e6:.3g} MB",
+        f"memory: about {est.memory_bytes / 1e9:.3g} GB at the set-up's peak on {est.ranks} rank(s) "
+        f"(docs/running.md, Memory); {cost.memory_text()}",
         f"budget ({budget}): " + ("within" if not over else
                                   "above (" + ", ".join(k for k, _, _ in over) + "): runs with --force"),
     ])

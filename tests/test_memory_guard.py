@@ -52,6 +52,15 @@ def test_over_the_available_memory_is_refused_before_the_mesh(no_mesh):
         cost.check(scene, ranks=(4, 2), available=half * 0.999)
 
 
+def test_check_states_the_memory_estimate(capsys):
+    capsys.readouterr()
+    assert cli.main(["run", "rsf_aging_2d", "--check"]) == 0
+    out = capsys.readouterr().out
+    if RANK == 0:
+        est = cost.estimate(load_scene("rsf_aging_2d"), MPI.COMM_WORLD.size)
+        assert f"memory: about {est.memory_bytes / 1e9:.3g} GB" in out and "(MemAvailable)" in out, out
+
+
 def test_the_command_refuses_a_scene_larger_than_this_machine(capsys, no_mesh, tmp_path):
     """``fricfem run`` (not only --check) says no in one line; no run directory is made."""
     free = cost.available_bytes()

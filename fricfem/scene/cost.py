@@ -268,6 +268,13 @@ def available_bytes() -> float | None:
     return None
 
 
+def memory_text() -> str:
+    """What this node has available, for ``fricfem run --check``."""
+    free = available_bytes()
+    return "available here: unknown (no /proc/meminfo)" if free is None else \
+        f"available here: {free / 1e9:.3g} GB (MemAvailable)"
+
+
 def node_ranks() -> tuple:
     """(ranks of the run, ranks on this node), without a collective call: from the MPI
     launcher's environment (Open MPI's ``OMPI_COMM_WORLD_SIZE``/``_LOCAL_SIZE``, MPICH's
