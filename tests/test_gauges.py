@@ -14,6 +14,7 @@ import math
 import subprocess
 import sys
 
+import h5py
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -92,6 +93,14 @@ def test_gauges_on_one_and_two_ranks_are_bit_identical(comm, tmp_dir_shared):
         assert np.array_equal(getattr(a, q), getattr(b, q))
     for q, v in a.data.items():
         assert np.array_equal(v, b.data[q]), q
+    # every numeric dataset says its unit ("1": dimensionless, as for the strain), none empty
+    if comm.rank == 0:
+        with h5py.File(tmp_dir_shared / "world" / GAUGES_FILE, "r") as f:
+            units = {}
+            f.visititems(lambda name, d: units.update({name: d.attrs.get("unit")})
+                         if isinstance(d, h5py.Dataset) and d.dtype.kind in "iuf" else None)
+        assert units and all(isinstance(u, str) and u for u in units.values()), units
+        assert units["strain"] == "1" and units["stress"] == "Pa"
 
 
 def _line_run(scene, out, comm, lines):

@@ -124,7 +124,7 @@ FIELD_MEANING = {
 GAUGE_QUANTITIES = {
     "displacement": ("m", ("u1", "u2"), "displacement u at time"),
     "velocity": ("m/s", ("v1", "v2"), "velocity v at velocity_time = time - dt/2 (central differences)"),
-    "strain": ("", ("e11", "e22", "e12"), "infinitesimal strain of the triangle holding the gauge, at time"),
+    "strain": ("1", ("e11", "e22", "e12"), "infinitesimal strain of the triangle holding the gauge, at time"),
     "stress": ("Pa", ("s11", "s22", "s12"), "in-plane stress of that triangle, prestress included, at time"),
     "stress_difference": ("Pa", (), "sigma1 - sigma2 (prestress included), at time"),
 }
