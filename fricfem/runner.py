@@ -288,8 +288,8 @@ class Observers(NamedTuple):
 def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summary: dict, every: int,
               quiet: bool = True, on_step=None) -> Observers:
     """The observers of a run of ``scene`` (:mod:`fricfem.observe`), in the loop's order:
-    stations, the one look at the interface, watchdog, spikes, tip, energies,
-    interface snapshots, fields, gauges, flushes (with the summary so far), signals,
+    stations, the one look at the interface, watchdog, spikes, tip, signals, energies,
+    interface snapshots, fields, gauges, flushes (with the summary so far),
     ``on_step(state)``, the progress line.  Collective (the gauges' file)."""
     comm = model.comm
     look = observe.Look(model.interface.geometry.x1)
@@ -301,7 +301,8 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
     tip = observe.Tip(look, scene.stop_at_tip)
     energies = observe.Energies(rec, scene.output.energy_every, n_steps(model, scene.t_end))
     snapshots = observe.Snapshots(rec, every)
-    order = [observe.Stations(rec), look, watchdog, spikes, tip, energies, snapshots]
+    signals = observe.Signals()  # after the watchdog and the tip: their stop reasons come first
+    order = [observe.Stations(rec), look, watchdog, spikes, tip, signals, energies, snapshots]
     if writer is not None:
         steps = field_steps(list(scene.output.fields) + frame_times(scene.output.frames), model.dt,
                             scene.t_end)
@@ -316,8 +317,7 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
         return record_texts(out, summary)
 
     flusher = observe.Flusher(rec, snapshots, gauges, scene.output.flush_every, comm, so_far)
-    signals = observe.Signals()
-    order += [flusher, signals]
+    order.append(flusher)
     if checkpoint.enabled(scene):  # after the flusher and the signals (a stop by a signal takes one too)
         watched = checkpoint.Watched(tip, spikes, watchdog, energies, flusher, rec, writer, gauges)
         order.append(checkpoint.Checkpointer(out, scene, model, watched, signals))

@@ -164,6 +164,10 @@ class Progress:
         self.last = 0.0
         self.decile = -1
 
+    def due(self) -> bool:
+        """Whether :meth:`update` would draw now (half a second since the last line)."""
+        return self.enabled and time.perf_counter() - self.last >= 0.5
+
     def update(self, t: float, extra: str = "", force: bool = False) -> None:
         now = time.perf_counter()
         if not self.enabled or (now - self.last < 0.5 and not force):
@@ -336,7 +340,8 @@ class ProgressLine:
         self.spikes = spikes
 
     def observe(self, state, energy) -> None:
-        self.progress.update(state.t, self.tip.text() + self.spikes.text())
+        if self.progress.due():  # the notes are formatted only for a line drawn
+            self.progress.update(state.t, self.tip.text() + self.spikes.text())
 
     def finish(self, state) -> dict:
         self.progress.update(state.t, self.tip.text() + self.spikes.text(), force=True)

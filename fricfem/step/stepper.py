@@ -168,12 +168,24 @@ def _plain(model, state, n_end, energy_every, end_energy, stepper, contributors,
     return None
 
 
+def _groups(observers, verb: str) -> list:
+    """``[(part, [bound verbs])]``: consecutive observers of one part timed together."""
+    out = []
+    for o in observers:
+        part = getattr(o, "part", "other")
+        if out and out[-1][0] == part:
+            out[-1][1].append(getattr(o, verb))
+        else:
+            out.append((part, [getattr(o, verb)]))
+    return out
+
+
 def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce, observers, timing):
-    """:func:`evolve` with each part's wall time booked in ``timing``."""
+    """:func:`evolve` with each part's wall time booked in ``timing`` (consecutive
+    observers of one part under one clock reading)."""
     clock, cost = time.perf_counter, timing.cost
-    parts = [getattr(o, "part", "other") for o in observers]
-    feeds = [getattr(o, "part", "other") for o in contributors]
-    for name in set(parts) | set(feeds) | {"watch"}:
+    feeds, looks = _groups(contributors, "contribute"), _groups(observers, "observe")
+    for name in {p for p, _ in feeds} | {p for p, _ in looks} | {"watch"}:
         cost.setdefault(name, 0.0)
     timing.t0 = clock()
     while state.n < n_end:
@@ -186,8 +198,9 @@ def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors,
         else:
             cost["step_with_energy"] += t1 - t0
             timing.energy_steps += 1
-        for o, part in zip(contributors, feeds):
-            o.contribute(state, e)
+        for part, verbs in feeds:
+            for contribute in verbs:
+                contribute(state, e)
             t2 = clock()
             cost[part] += t2 - t1
             t1 = t2
@@ -197,13 +210,14 @@ def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors,
             cost["watch"] += t2 - t1
             t1 = t2
         stop = None
-        for o, part in zip(observers, parts):
-            why = o.observe(state, e)
+        for part, verbs in looks:
+            for look in verbs:
+                why = look(state, e)
+                if stop is None:
+                    stop = why
             t2 = clock()
             cost[part] += t2 - t1
             t1 = t2
-            if stop is None:
-                stop = why
         timing.observers_s += t1 - ts
         timing.wall = t1 - timing.t0
         if timing.first_step_s is None:
