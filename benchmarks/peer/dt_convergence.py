@@ -28,7 +28,7 @@ RESULT = score.RESULTS / "peer_dt_convergence.json"
 
 def compare(problem: str, kind: str, h: float, safety, ranks: int, tag: str, pythonpath, out: str) -> dict:
     """Both steps of one (problem, kind, h): the changes between them and each against the peer."""
-    ref = score.peer_metrics(problem, score.REFERENCE)
+    ref = score.peer_metrics(problem, score.reference(problem))
     xs = sorted(ref["stations"])
     m, rec = {}, {}
     for sf in safety:

@@ -74,7 +74,10 @@ def problem_md(name: str, prob: dict) -> list:
                          f"{r['cpu_s']:.1f} | {r['dofs']:,} dofs, {r['steps']} steps | {r['t_r_us']:.3f} | "
                          f"{r['t_r_pct']:.2f} | {r['t_r_rms_pct']:.2f} | {r['slip_pct']:.2f} | "
                          f"{r['v_peak_pct']:.1f} |")
-    spread = prob["peer"].get("h0.05mm")
+    spread = prob["peer"].get("h0.05mm") if prob.get("reference", "p8_h0.0625mm") == "p8_h0.0625mm" else None
+    if prob.get("reference", "p8_h0.0625mm") != "p8_h0.0625mm":
+        L += ["", f"**Reference: the peer's `{prob['reference']}`**, not its finest `p8_h0.0625mm` "
+              "(benchmarks/peer/README.md, problem (c): that run had not finished when these scores were made)."]
     L += ["", "CPU: fricfem, user + system of the whole run summed over its ranks "
           f"({_ranks(prob)} ranks); SEM2DPACK, user + system of its serial run."]
     if spread:

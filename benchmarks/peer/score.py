@@ -69,7 +69,7 @@ ROOT = HERE.parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 PROBLEMS = ("tpv205_2d", "rsf_aging_2d", "rsf_slip_2d")
 REFERENCE = "p8_h0.0625mm"
-PEER_RUNS = ("h0.25mm", "h0.1mm", "h0.05mm", "p8_h0.125mm")
+PEER_RUNS = ("h0.25mm", "h0.1mm", "h0.05mm", "p8_h0.125mm", "p8_h0.0625mm")
 THRESHOLD = 1e-3  # m/s: rupture
 T_R_MIN = 1e-6  # s: rupture times below this (the nucleation patch) are not scored
 GAUSS_OFFSET = 0.5 * (1.0 - 0.8611363115940526)  # a node's distance to its nearest Gauss point, in cells
@@ -80,6 +80,13 @@ GAUSS_OFFSET = 0.5 * (1.0 - 0.8611363115940526)  # a node's distance to its near
 
 def peer_summary(problem: str) -> dict:
     return json.loads((HERE / problem / "sem2dpack_summary.json").read_text())
+
+
+def reference(problem: str) -> str:
+    """The peer run a problem is scored against: its finest, REFERENCE, where the
+    peer ran it, else the finest it has (rsf_slip_2d: README, problem (c))."""
+    have = peer_summary(problem)["resolutions"]
+    return next(lab for lab in (REFERENCE, "h0.05mm", "p8_h0.125mm") if lab in have)
 
 
 def peer_metrics(problem: str, label: str) -> dict:
@@ -238,10 +245,13 @@ def _record(rec: dict, summary_file: Path) -> dict:
 
 
 def score_problem(problem: str, args, doc: dict) -> None:
-    ref = peer_metrics(problem, REFERENCE)
+    label_ref = reference(problem)
+    ref = peer_metrics(problem, label_ref)
     xs = sorted(ref["stations"])
     prob = doc["problems"].setdefault(problem, {"peer": {}, "fricfem": {}})
-    for label in (lab for lab in PEER_RUNS if lab in peer_summary(problem)["resolutions"]):
+    prob["reference"] = label_ref
+    prob["peer"] = {}
+    for label in (lab for lab in PEER_RUNS if lab in peer_summary(problem)["resolutions"] and lab != label_ref):
         p = peer_metrics(problem, label)
         prob["peer"][label] = {"cpu_s": p["cpu_s"], **errors(p["stations"], ref["stations"])}
     runs = prob["fricfem"].setdefault(args.tag, {"note": args.note, "runs": {}})
