@@ -17,12 +17,16 @@ BLAS), within 1e-9 of its scale (the largest energy) in tolerance mode.
 Two modes of comparison:
 
 * ``exact`` (the default on every stack: dolfinx 0.5.2, 0.9 and the 0.11 wheel
-  give the same datasets, bit for bit): every SHA-256 digest must match.  Never loosened.  One summary number is kept
-  apart: ``dt_crit_s`` = 2/√λmax, compared within :data:`DT_CRIT_RTOL` = 1e-12
-  relative.  Its power iteration multiplies by PETSc's K, whose row sums round
-  differently between PETSc 3.18 (Debian 12) and 3.22 (Debian 13): 5e-15
-  relative on case3_20us_1rank.  The step itself, ``dt_s`` (dt_crit × dt_safety
-  rounded down to 3 digits), and so every dataset, stay bit-exact.
+  give the same datasets, bit for bit): every SHA-256 digest must match.
+  Never loosened.  One summary number is kept apart: ``dt_crit_s`` = 2/√λmax,
+  compared within :data:`DT_CRIT_RTOL` = 1e-12 relative.  Its power iteration
+  starts from a vector made with ``np.sin`` of the grid coordinates
+  (``fricfem.model.assembly._coordinate_noise``), and numpy 1.24 (Debian 12)
+  and numpy >= 2.2 (Debian 13, the 0.11 wheel) round sin differently in its last
+  bits: 5e-15 relative on case3_20us_1rank (PETSc's K·x is the same bits on
+  PETSc 3.18, 3.22 and 3.25 given the same x).  The step itself, ``dt_s``
+  (dt_crit × dt_safety rounded down to 3 digits), and so every dataset, stay
+  bit-exact.
 * ``tolerance`` (asked for only, ``FRICFEM_GOLDEN=tolerance``: for a stack
   that rounds differently somewhere fricfem cannot reach; docs/install.md): a dataset whose digest differs passes if its
   shape, its count of non-finite values and its *scale numbers* agree within
@@ -75,7 +79,7 @@ CASES = {
 #: evidence is stored are not); the mode counts by its label
 SUMMARY_KEYS = ("steps", "t_s", "dt_s", "dofs", "interface_points", "complete", "initiation",
                 "tip", "fronts", "watchdog", "ended_early")
-#: the relative tolerance on dt_crit_s in both modes (λmax through PETSc's MatMult: see the module docstring)
+#: the relative tolerance on dt_crit_s in both modes (λmax's start vector through np.sin: see the module docstring)
 DT_CRIT_RTOL = 1e-12
 #: exact mode: the energies' tolerance relative to their scale (0: bit-exact; their sums are fricfem's own)
 ENERGY_RTOL = 0.0
