@@ -292,7 +292,7 @@ class Flusher:
         self.red.local[self.i] = 1.0 if due else 0.0
 
     def observe(self, state, energy) -> None:
-        if self.red.glob[self.i] > 0 or self.snapshots.pending >= FLUSH_ROWS:
+        if self.red.values[self.i] > 0 or self.snapshots.pending >= FLUSH_ROWS:
             self.flush(state)
 
     def flush(self, state) -> None:

@@ -53,7 +53,7 @@ class Look:
         local[i_tip], local[i_first], local[i_vmax] = seen[0], seen[1], seen[2]
 
     def observe(self, state, energy) -> None:
-        glob, (i_tip, i_first, i_vmax) = self.red.glob, self.i
+        glob, (i_tip, i_first, i_vmax) = self.red.values, self.i
         self.tip, self.first, self.vmax = glob[i_tip], glob[i_first], glob[i_vmax]
 
     def snapshot(self) -> dict:
@@ -153,6 +153,9 @@ class LawWatch:
         res = float(np.dot(w, p.work - elastic - p.dissipated + pre))
         size = float(np.dot(w, np.abs(p.work) + elastic + np.abs(p.dissipated) + np.abs(pre)))
         return abs(res) / size if size > 1e-300 else 0.0
+
+
+_LAW_MIN = min(_LAW)
 
 
 def _law_message(code: int, t: float, law: str) -> str:
@@ -264,8 +267,10 @@ class Spikes:
         self.steps_above = 0
 
     def observe(self, state, energy) -> None:
-        seen = self.look.seen
-        self.see(self.look.vmax, state.t_interface, (seen[2], seen[4]))
+        vmax = self.look.vmax
+        if vmax > self.threshold or vmax > self.peak:  # else :meth:`see` changes nothing (a NaN neither)
+            seen = self.look.seen
+            self.see(vmax, state.t_interface, (seen[2], seen[4]))
 
     def finish(self, state) -> dict:
         return {"slip_rate_spike": self.report()}
@@ -336,7 +341,8 @@ class Watchdog:
         self.i = reduction.slot("watchdog")
 
     def contribute(self, state, energy) -> None:
-        code = watchdog_code(not self.look.seen[3], energy, self.limits)
+        finite = not self.look.seen[3]
+        code = watchdog_code(finite, energy, self.limits) if energy is not None else (0 if finite else 1)
         # the watchdog disabled: a divergence is reduced as code / 10 (< 1, no stop; :meth:`observe`)
         mine = code if self.limits["enabled"] else 0.1 * code
         if self.law_watch is not None:  # a user's law: its contract, every step (codes above the watchdog's)
@@ -346,8 +352,8 @@ class Watchdog:
         self.red.local[self.i] = mine
 
     def observe(self, state, energy) -> str | None:
-        worst = self.red.glob[self.i]
-        if worst >= min(_LAW):
+        worst = self.red.values[self.i]
+        if worst >= _LAW_MIN:
             self.stopped = _law_message(int(worst), state.t, self.model.interface.law.name)
             return "watchdog"
         if worst >= 1:
@@ -455,4 +461,4 @@ class Signals:
         self.red.local[self.i] = 1.0 if self.requested else 0.0
 
     def observe(self, state, energy) -> str | None:
-        return "signal" if self.red.glob[self.i] > 0 else None
+        return "signal" if self.red.values[self.i] > 0 else None

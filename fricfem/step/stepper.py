@@ -60,7 +60,8 @@ class Reduction:
     Observers that need a value over all ranks take a slot by name once, before
     the loop (:meth:`slot`: its index), write this rank's value into
     :attr:`local` in their :meth:`contribute`, and read the result in
-    :attr:`glob` in their :meth:`observe` (one reduction, however many
+    :attr:`glob` (or :attr:`values`, the same as Python floats) in their
+    :meth:`observe` (one reduction, however many
     observers; none without slots).  A slot's value is reset to −inf before
     every step's contributions."""
 
@@ -69,6 +70,7 @@ class Reduction:
         self.names: list = []
         self.local = np.zeros(0)
         self.glob = np.zeros(0)
+        self.values: list = []  # :attr:`glob` as Python floats (cheaper to read and compare)
 
     def slot(self, name: str) -> int:
         """The index of the new slot ``name`` (a name is taken once)."""
@@ -82,6 +84,7 @@ class Reduction:
     def reduce(self) -> None:
         """Every rank's slots to :attr:`glob` (their maximum; collective)."""
         self.comm.Allreduce(self.local, self.glob, op=MPI.MAX)
+        self.values = self.glob.tolist()
 
     def __getitem__(self, name: str) -> float:
         """The value of slot ``name`` over all ranks after the last :meth:`reduce`."""
