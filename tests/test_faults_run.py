@@ -472,3 +472,23 @@ def test_a_law_registered_on_one_rank_ends_the_job(comm, tmp_dir_shared):
     assert status != 0 and "Traceback" not in err, err
     assert len(lines) == 1 and "rank 1 of 2" in lines[0] and "'mine'" in lines[0], err
     assert "register_law must run on every rank" in lines[0], err
+
+
+def test_a_killed_lock_holder_not_yet_reaped_is_not_running():
+    """A run SIGKILLed under mpirun is reparented and stays a zombie until something
+    reaps it; its lock was taken for a live run ("another fricfem run is writing
+    there"), so ``--resume`` right after the kill was refused.  A zombie writes nothing."""
+    import socket
+    from fricfem.output import directory as d
+
+    p = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    try:
+        info = {"pid": p.pid, "host": socket.gethostname(), "start_ticks": d._start_ticks(p.pid)}
+        assert d._alive(info)
+        os.kill(p.pid, signal.SIGKILL)
+        while (d._stat(p.pid) or ["Z"])[0] != "Z":  # the event: the kernel has made it a zombie (not reaped)
+            time.sleep(0.01)
+        assert not d._alive(info)
+    finally:
+        p.kill()
+        p.wait()

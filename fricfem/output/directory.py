@@ -55,13 +55,18 @@ def _reason(err: OSError) -> str:
     return err.strerror or os.strerror(err.errno) if err.errno else str(err)
 
 
-def _start_ticks(pid: int):
-    """The start time of process ``pid`` in clock ticks since boot (Linux), or None."""
+def _stat(pid: int):
+    """The fields of ``/proc/PID/stat`` after the command's name (Linux), or None."""
     try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
+        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
     except OSError:
         return None
-    return int(stat.rpartition(")")[2].split()[19])
+
+
+def _start_ticks(pid: int):
+    """The start time of process ``pid`` in clock ticks since boot (Linux), or None."""
+    stat = _stat(pid)
+    return None if stat is None else int(stat[19])
 
 
 def _alive(info: dict) -> bool:
@@ -77,7 +82,10 @@ def _alive(info: dict) -> bool:
         return False
     except PermissionError:
         return True
-    ticks = _start_ticks(pid)
+    stat = _stat(pid)
+    if stat is not None and stat[0] in ("Z", "X"):  # killed, not yet reaped: it writes nothing any more
+        return False
+    ticks = None if stat is None else int(stat[19])
     return ticks is None or info.get("start_ticks") in (None, ticks)
 
 
