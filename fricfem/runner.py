@@ -53,10 +53,16 @@ RUN_FILES = directory.RUN_FILES
 def prepare_outdir(out: Path, comm, overwrite: bool):
     """Make, lock and (``overwrite``) clear the run directory before any heavy work
     (:func:`fricfem.output.directory.prepare`; collective); the lock on rank 0."""
+    return _lock_on_rank0(comm, lambda: directory.prepare(out, overwrite))
+
+
+def _lock_on_rank0(comm, take):
+    """``take()`` (a :mod:`fricfem.output.directory` call that locks the run directory) on
+    rank 0; its :class:`RunDirError` raised on every rank (collective); the lock on rank 0."""
     lock = problem = None
     if comm.rank == 0:
         try:
-            lock = directory.prepare(out, overwrite)
+            lock = take()
         except RunDirError as err:
             problem = str(err)
     problem = comm.bcast(problem, root=0)
@@ -211,16 +217,7 @@ def run_scene(scene: Scene, out: Path, comm=MPI.COMM_WORLD, overwrite: bool = Fa
 
 def _reopen(out: Path, comm):
     """Lock the run directory of a run to resume, keeping its files (collective; the lock on rank 0)."""
-    lock = problem = None
-    if comm.rank == 0:
-        try:
-            lock = directory.reopen(out)
-        except RunDirError as err:
-            problem = str(err)
-    problem = comm.bcast(problem, root=0)
-    if problem:
-        raise RunDirError(problem)
-    return lock
+    return _lock_on_rank0(comm, lambda: directory.reopen(out))
 
 
 def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: float, header=None) -> dict:

@@ -4,7 +4,7 @@ every rank of ``comm`` and alone on rank 0: which recorded arrays differ."""
 import numpy as np
 from mpi4py import MPI
 
-from fricfem import runner
+from fricfem import cli, runner
 from fricfem.output.rundir import open_run
 
 
@@ -89,3 +89,24 @@ def count_calls(monkeypatch, targets: dict) -> dict:
     for label, (module, name) in targets.items():
         monkeypatch.setattr(module, name, counted(label, getattr(module, name)))
     return calls
+
+
+def command(capsys, argv):
+    """(status, this rank's stderr lines) of ``fricfem ARGV`` in process."""
+    capsys.readouterr()
+    status = cli.main(argv)
+    return status, [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+
+
+def one_error(capsys, argv, *needles) -> str:
+    """``fricfem ARGV`` fails with status 2 and one line on rank 0 containing every needle
+    (nothing on the other ranks); that line on rank 0, "" elsewhere."""
+    status, err = command(capsys, argv)
+    assert status == 2, err
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(err) == 1 and err[0].startswith("fricfem: error: "), err
+        for n in needles:
+            assert n in err[0], err[0]
+        return err[0]
+    assert err == []
+    return ""

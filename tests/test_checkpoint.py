@@ -30,8 +30,8 @@ import pytest
 from mpi4py import MPI
 
 import faults
-from rankcheck import differing, h5_arrays, on_rank0
-from fricfem import cli, load_scene, open_run, runner
+from rankcheck import differing, h5_arrays, on_rank0, one_error
+from fricfem import load_scene, open_run, runner
 from fricfem.output.checkpoint import CHECKPOINT_FILE, CheckpointError, read_header
 from fricfem.output.directory import LOCK_FILE
 
@@ -203,21 +203,6 @@ def test_sigterm_stop_then_resume_is_bit_identical(comm, tmp_dir_shared):
     assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []
 
 
-def _one_error(capsys, argv, *needles) -> str:
-    """``fricfem ARGV`` fails with status 2 and one line on rank 0 naming every needle."""
-    capsys.readouterr()
-    status = cli.main(argv)
-    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
-    assert status == 2, err
-    if RANK == 0:
-        assert len(err) == 1 and err[0].startswith("fricfem: error: "), err
-        for n in needles:
-            assert n in err[0], err[0]
-        return err[0]
-    assert err == []
-    return ""
-
-
 def test_refusals(comm, tmp_dir_shared, capsys, monkeypatch):
     """One line each, before a mesh is built: another scene's checkpoint, a checkpoint
     of another code version, a truncated one, a complete run, a run without checkpoints."""
@@ -231,7 +216,7 @@ def test_refusals(comm, tmp_dir_shared, capsys, monkeypatch):
         built = []
         monkeypatch.setattr(runner, "_run", lambda *a, **k: built.append(1))  # the build and the run
         try:
-            return _one_error(capsys, argv, *needles)
+            return one_error(capsys, argv, *needles)
         finally:
             monkeypatch.undo()
             assert not built
@@ -364,7 +349,7 @@ def test_an_experiment_resumes(comm, tmp_dir_shared, capsys):
     _cut(scene, tmp_dir_shared / "cut", comm, 60)
     assert runner.run_scene(scene, tmp_dir_shared / "cut", comm, quiet=True, resume=True)["complete"]
     assert on_rank0(comm, lambda: compare(tmp_dir_shared / "cut", tmp_dir_shared / "full")) == []
-    _one_error(capsys, ["run", "case3", "--set", "mesh.preset='coarse'", "--set", "time.end=4e-6", "--set",
+    one_error(capsys, ["run", "case3", "--set", "mesh.preset='coarse'", "--set", "time.end=4e-6", "--set",
                         "output.fields=[]", "--set", "output.checkpoint_every=5e-6", "--out",
                         str(tmp_dir_shared / "never"), "--quiet"],
                "output.checkpoint_every = 5e-06 s", "no checkpoint would be written")

@@ -24,33 +24,13 @@ import pytest
 from mpi4py import MPI
 
 import faults
-from rankcheck import on_rank0
-from fricfem import cli, load_scene, open_run, runner
+from rankcheck import command, on_rank0, one_error
+from fricfem import load_scene, open_run, runner
 from fricfem.output import directory
 from fricfem.output.directory import LOCK_FILE, MANIFEST_FILE, RunDirError
 
 RANK = MPI.COMM_WORLD.rank
 COARSE = ["--set", "mesh.preset='coarse'", "--set", "output.fields=[]", "--set", "time.end=4e-6"]
-
-
-def command(capsys, argv):
-    """(status, this rank's stderr lines) of ``fricfem ARGV`` in process."""
-    capsys.readouterr()
-    status = cli.main(argv)
-    return status, [line for line in capsys.readouterr().err.splitlines() if line.strip()]
-
-
-def one_error(capsys, argv, *needles) -> str:
-    """``fricfem ARGV`` fails with status 2 and one line on rank 0 containing every needle."""
-    status, err = command(capsys, argv)
-    assert status == 2
-    if RANK == 0:
-        assert len(err) == 1 and err[0].startswith("fricfem: error: "), err
-        for n in needles:
-            assert n in err[0], err[0]
-        return err[0]
-    assert err == []
-    return ""
 
 
 # -- SIGKILL --------------------------------------------------------------------------------------
