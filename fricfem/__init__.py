@@ -23,6 +23,7 @@ __version__ = "0.1.0"
 
 def _ranks() -> int:
     """The job's rank count as mpirun tells it (without initialising MPI)."""
+    # here, not at the top: fricfem's namespace is its API alone (see the docstring)
     import os
 
     for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
@@ -38,12 +39,14 @@ def _end_job_on_uncaught() -> None:
     their next collective: a law registered on one rank only, then ``load_scene``
     raising on the others).  Installed by the API's entry points; a hook of the
     user's own (anything but Python's default) is left alone."""
+    # here, not at the top: fricfem's namespace is its API alone (see the docstring)
     import sys
 
     if _ranks() <= 1 or sys.excepthook is not sys.__excepthook__:
         return
 
     def hook(kind, value, tb):
+        # lazy: start-up time (import fricfem loads no MPI, dolfinx, numba or h5py)
         from mpi4py import MPI
 
         if issubclass(kind, ValueError):  # SceneError and the other bad-input errors: their one line
@@ -63,6 +66,7 @@ def load_scene(ref, overrides=()):
     """A validated scene (:class:`fricfem.scene.Scene`) from a shipped name or a
     .toml path, with ``--set``-style overrides (``"section.key=value"``).
     Raises :class:`fricfem.scene.SceneError` naming the key on bad input."""
+    # lazy: start-up time (import fricfem loads no MPI, dolfinx, numba or h5py)
     from .scene import SceneError, load
 
     _end_job_on_uncaught()
@@ -79,6 +83,7 @@ def run(scene, out=None, *, comm=None, overwrite=False, quiet=True, on_step=None
     """Run a scene (a :class:`~fricfem.scene.Scene`, or a name/path to load)
     into the run directory ``out`` (default ``runs/<name>``); returns the
     summary (every rank).  Collective over ``comm`` (default MPI.COMM_WORLD)."""
+    # here, not at the top: fricfem's namespace is its API alone (see the docstring)
     from pathlib import Path
 
     from mpi4py import MPI
@@ -100,6 +105,7 @@ def open_run(rundir):
     inside the plates (:class:`fricfem.output.gauges.GaugeFile`, None if the scene
     had no ``output.gauges``).  A run still going or killed reads as far as it was
     flushed."""
+    # lazy: start-up time (import fricfem loads no MPI, dolfinx, numba or h5py)
     from .output.gauges import open_gauges
     from .output.rundir import open_run as _open
 
@@ -108,6 +114,7 @@ def open_run(rundir):
     try:
         run.gauges = open_gauges(rundir)
     except OSError as err:  # an optional file: the rest of the run is still read
+        # here, not at the top: fricfem's namespace is its API alone (see the docstring)
         import warnings
 
         run.gauges = None
@@ -121,6 +128,7 @@ def register_law(law, *, replace=False):
     contract of :mod:`fricfem.friction.base`) so that scenes can name it in
     ``friction.law``; its functions are compiled and checked once here
     (:func:`fricfem.friction.register_law`; docs/api.md, "A law of your own")."""
+    # lazy: start-up time (import fricfem loads no MPI, dolfinx, numba or h5py)
     from .friction import register_law as _register
 
     _end_job_on_uncaught()

@@ -116,6 +116,7 @@ def status(job: Job) -> str:
     complete or was stopped by the watchdog (a directory whose run was killed
     or damaged since is run again).  Same identity: :func:`same_identity` (a
     reworded scene description does not make a run stale)."""
+    # lazy: start-up time (it loads h5py)
     from .output.rundir import read_summary
 
     s = stored(job)
@@ -166,6 +167,7 @@ def run_scene_job(job: Job, comm, models=None) -> dict:
     """The default work of a job: run its scene (overwriting the directory), or continue it
     from its checkpoint when its directory holds one of this scene (:func:`resumable`); the
     summary.  ``models``: a :class:`fricfem.model.reuse.ModelCache` to take the model from."""
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py, numba, h5py)
     from .runner import run_scene
 
     build = {} if models is None else {"build": models.build}
@@ -179,6 +181,7 @@ def resumable(job: Job, comm) -> bool:
     checkpoint it can continue from (:func:`fricfem.output.checkpoint.check_resume`: the
     same scene key and code, a whole file, not complete); collective on ``comm``.  Any
     other directory's run starts again."""
+    # lazy: start-up time (it loads numba)
     from .output import checkpoint
 
     try:
@@ -268,6 +271,7 @@ class Pool:
         k = int(ranks_per_job)
         if k < 1 or comm.size % k:
             raise ValueError(f"--ranks-per-scene {ranks_per_job}: must divide the number of ranks ({comm.size})")
+        # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py, numba)
         from .model.reuse import ModelCache
 
         self.comm, self.k = comm, k

@@ -16,6 +16,7 @@ import logging
 import math
 import os
 import sys
+from pathlib import Path
 
 
 def _rank() -> int:
@@ -38,6 +39,7 @@ def _error(msg: str, prog: str = "fricfem") -> int:
 def _collective(fn):
     """``fn()`` on every rank; if it fails on any rank with bad input, a SceneError
     (the first rank's message) on every rank — so no rank goes on alone."""
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from mpi4py import MPI
 
     from .scene import SceneError
@@ -55,6 +57,7 @@ def _collective(fn):
 
 def _given(args, *names) -> None:
     """Refuse an option given as an empty string (it would otherwise fall back to a default)."""
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .scene import SceneError
 
     for name in names:
@@ -70,6 +73,7 @@ def _warn(lines) -> None:
 
 
 def _mesh(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from mpi4py import MPI
 
     from . import scene as scene_mod
@@ -124,6 +128,7 @@ def _mesh(args) -> int:
 
 
 def _scenes(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from . import scene as scene_mod
 
     if args.keys:
@@ -137,6 +142,7 @@ def _scenes(args) -> int:
 
 
 def _show(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .show import show
 
     text = show(args.scene, args.set)  # validated first: a bad scene or --set is one error line
@@ -147,8 +153,7 @@ def _show(args) -> int:
 
 def _run_dirs(*paths) -> None:
     """Refuse, on every rank alike, a path that is not a run directory (rank 0 then does the reading)."""
-    from pathlib import Path
-
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .scene import SceneError
 
     for path in paths:
@@ -157,6 +162,7 @@ def _run_dirs(*paths) -> None:
 
 
 def _export(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .output.export import export
 
     _given(args, "rundir", "--out")
@@ -169,6 +175,7 @@ def _export(args) -> int:
 
 
 def _compare(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .analysis import compare
 
     _given(args, "run_a", "run_b")
@@ -177,6 +184,7 @@ def _compare(args) -> int:
         return 0
     result = compare.compare(args.run_a, args.run_b)
     if args.json:
+        # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
         from .output.record import jsonable
 
         print(json.dumps(jsonable(result), indent=2))
@@ -187,6 +195,7 @@ def _compare(args) -> int:
 
 def _check_text(scene, est, ranks: int = 1) -> str:
     """What ``fricfem run --check`` prints: the scene is valid, its size and cost against the budget."""
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .scene import cost
 
     dt = (f"time.dt = {est.dt_low:.3g} s" if est.dt_fixed else
@@ -210,6 +219,7 @@ def _check_text(scene, est, ranks: int = 1) -> str:
 
 
 def _run(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from mpi4py import MPI
 
     from . import scene as scene_mod
@@ -233,6 +243,7 @@ def _run(args) -> int:
             print(_check_text(scene, est, MPI.COMM_WORLD.size))
         return 0
 
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from . import runner as run
 
     summary = run.resolve_and_run(args.scene, args.set, args.out, args.overwrite, args.quiet)
@@ -243,8 +254,7 @@ def _resume(args) -> int:
     """``fricfem run [SCENE] --resume DIR``: continue the killed or stopped run in DIR from its
     checkpoint; the scene is the checkpoint's own (``--set`` may change output-only keys such as
     output.checkpoint_wall), or SCENE, which must be the same run."""
-    from pathlib import Path
-
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from mpi4py import MPI
 
     from . import runner as run
@@ -268,6 +278,7 @@ def _resume(args) -> int:
 
 def _report(summary) -> int:
     """The run's one line on stderr (rank 0); the exit status: 0 for a complete run."""
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from mpi4py import MPI
 
     if MPI.COMM_WORLD.rank == 0:
@@ -284,6 +295,7 @@ def _report(summary) -> int:
 
 
 def _plot(args) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .scene import SceneError
 
     _given(args, "rundir", "--times", "--out")
@@ -296,8 +308,8 @@ def _plot(args) -> int:
             if not (math.isfinite(t) and t >= 0):
                 raise SceneError(f"--times {args.times!r}: {item.strip()!r} is not a time in µs >= 0; expected "
                                  f"comma-separated numbers, e.g. 22,32")
-    from pathlib import Path
 
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .plot import modemap as plot_modemap
 
     if plot_modemap.is_sweep(args.rundir):  # a sweep directory: its mode map(s), or why there is none yet
@@ -316,6 +328,7 @@ def _plot(args) -> int:
                          f"nor a sweep directory (no modemap.json or points/): nothing to plot")
     if _rank() != 0:
         return 0
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from .plot import run as plot_run
 
     return plot_run.main([args.rundir] + (["--times", args.times] if args.times is not None else [])
@@ -324,6 +337,7 @@ def _plot(args) -> int:
 
 
 def _sweep(argv) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from . import sweep
 
     return sweep.main(argv)
@@ -363,6 +377,7 @@ def main(argv=None) -> int:
 
 
 def _main(argv) -> int:
+    # lazy: start-up time (each subcommand loads only what it needs: fricfem scenes/show no MPI or dolfinx)
     from ._startup import lighten_imports
 
     lighten_imports()  # ufl's and ffcx's version lookups without pkg_resources' scan (fricfem/_startup.py)

@@ -77,6 +77,7 @@ def check_laws(scene: Scene, comm) -> None:
     rank naming the law and the ranks that have it (fricfem.register_law runs on each)."""
     if comm.size == 1:
         return
+    # lazy: start-up time (it loads numba)
     from .friction import BUILT_IN, LAWS
 
     mine = {name: repr((law.params, law.state, law.memo)) for name, law in LAWS.items() if name not in BUILT_IN}
@@ -131,6 +132,7 @@ def _diagnose(rec: Recorder, tip_t, tip_x, speeds, every: int) -> dict:
     tip sampled at the interface-snapshot cadence (``every`` steps), so that a
     window spans a few Gauss-point spacings rather than one staircase step.
     """
+    # lazy: start-up time (it loads numba, h5py)
     from . import analysis
 
     out = {}
@@ -228,6 +230,7 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     _check_step(scene, model, comm)
     state = State(model, skip_quiet=scene.skip_quiet)
     if model.bodies is not None:  # the projectile moves at t = 0
+        # lazy: start-up time (it loads numba)
         from .model.bodies import launch
 
         launch(model, state)
@@ -257,10 +260,12 @@ def _field_writer(scene: Scene, model, out: Path):
     """The field snapshots' writer (output.fields and the isochromatic frames), or None."""
     if not (scene.output.fields or scene.output.frames):
         return None
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py, numba)
     from .output.fields import FieldWriter
 
     moduli = scene.material
     if model.bodies is not None:  # steel in the buffer and the projectile
+        # lazy: start-up time (it loads numba)
         from .model.bodies import field_moduli
 
         moduli = field_moduli(model.V, scene.mesh, scene.material, scene.experiment)
@@ -290,6 +295,7 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
     ``on_step(state)``, the progress line.  Collective (the gauges' file)."""
     comm = model.comm
     look = observe.Look(model.interface.geometry.x1)
+    # lazy: start-up time (it loads numba)
     from .friction import BUILT_IN
 
     law_watch = None if model.interface.law.name in BUILT_IN else observe.LawWatch(model.interface, state.points)

@@ -126,3 +126,28 @@ def test_the_checks_see_a_cycle_and_a_wrong_row():
     rooms = parse_rooms(text)
     assert rooms["keys"][1] == {"step"} and rooms["step"][1] == {"kernels", "keys"} and rooms["kernels"][1] == set()
     assert _room_of("fricfem.step.fused", rooms) == "step" and _room_of("fricfem.runner", rooms) is None
+
+
+def test_every_import_inside_a_function_says_why():
+    """Issue 25: an import inside a function stays only where start-up time (or a cycle) needs
+    it, with a comment saying so: on its line, or on a comment line heading its block (imports
+    separated by blank lines only)."""
+    import ast
+
+    missing = []
+    for path in sorted(Path(__file__).resolve().parents[1].joinpath("fricfem").rglob("*.py")):
+        src = path.read_text()
+        lines = src.splitlines()
+        nodes = sorted({n.lineno: n for f in ast.walk(ast.parse(src))
+                        if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))
+                        for n in ast.walk(f) if isinstance(n, (ast.Import, ast.ImportFrom))}.items())
+        covered = {i for _, n in nodes for i in range(n.lineno, n.end_lineno + 1)}
+        for lineno, n in nodes:
+            if any("#" in lines[i - 1] for i in range(n.lineno, n.end_lineno + 1)):
+                continue
+            i = lineno - 1                      # 1-based line above
+            while i >= 1 and (i in covered or not lines[i - 1].strip()):
+                i -= 1
+            if i < 1 or not lines[i - 1].strip().startswith("#"):
+                missing.append(f"{path.relative_to(path.parents[1])}:{lineno}: {lines[lineno - 1].strip()}")
+    assert not missing, "imports inside functions without a comment saying why:\n" + "\n".join(missing)

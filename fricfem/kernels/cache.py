@@ -36,6 +36,7 @@ def _cache_dirs() -> list:
     """Where numba keeps fricfem's cache: NUMBA_CACHE_DIR, else each package's __pycache__."""
     base = os.environ.get("NUMBA_CACHE_DIR")
     if base:  # numba's folder for a source folder: its name and a hash of its absolute path
+        # lazy: numba's caching internals, only once a kernel is cached
         from numba.core.caching import _CacheLocator
 
         return [Path(base) / _CacheLocator.get_suitable_cache_subpath(str(_ROOT / d / "__init__.py"))

@@ -279,6 +279,7 @@ def max_eigenvalue(K, mass, interface, num, iterations=500, rtol=1e-8) -> float:
     ``VecDot``/``VecNorm``, whose BLAS sums in an order of its processor
     kernel: λmax, and ``dt_crit_s``, are then the same bits under any BLAS
     on any processor (for a given number of ranks)."""
+    # lazy: start-up time (it loads numba)
     from ..kernels.reduce import rayleigh_sums
 
     x = K.createVecRight()

@@ -334,6 +334,7 @@ def field_moduli(V, spec: BodiesMesh, material: Material, exp: Experiment) -> _M
     for the field output's stresses (:class:`fricfem.output.fields.FieldWriter`
     takes them for ``material``): Homalite, and the steel in the buffer and the
     projectile (true stresses: the thickness factor is not applied)."""
+    # lazy: start-up time (dolfinx/petsc4py are slow to import)
     from dolfinx import fem  # here: dolfinx only for the field output (start-up: scenes import bodies)
 
     from .. import compat

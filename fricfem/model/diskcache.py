@@ -40,6 +40,8 @@ import hashlib
 import json
 import os
 import platform
+import stat
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -69,6 +71,7 @@ def cache_dir() -> Path | None:
 @functools.lru_cache(maxsize=None)
 def code_version() -> str:
     """SHA-256 of the :data:`SOURCES` and of the numerical libraries' versions."""
+    # lazy: start-up time (dolfinx/petsc4py are slow to import)
     import dolfinx
     import petsc4py
 
@@ -181,8 +184,6 @@ class Forged(Exception):
 def _open_regular(path: Path):
     """``path`` opened for reading if it is a regular file (a FIFO or a device is never
     opened for a blocking read: ``O_NONBLOCK``, then ``fstat``); raises :class:`Forged` if not."""
-    import stat
-
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
@@ -214,8 +215,6 @@ def _read(name: str, parse):
 
 
 def _notice(path: Path, why: str) -> None:
-    import sys
-
     try:
         sys.stderr.write(f"fricfem: notice: set-up cache entry {path} ignored ({why}); computing it anew\n")
     except (OSError, ValueError):

@@ -100,6 +100,7 @@ def _partitioner(centroids: np.ndarray):
     (all cells are on the calling communicator's rank 0 when it runs), with
     ghosts on the parts that hold a facet neighbour when ghosting is asked for.
     The partition, hence every result, is the same from one run to the next."""
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py)
     from .. import compat
 
     def part(comm, nparts, graph, ghosting):
@@ -152,6 +153,7 @@ def _facet_tags(msh, tagged: tuple) -> tuple:
     matched against the tagged pairs.  What distributing the tags with the mesh
     gives (``tests/test_foundation.py`` compares the two); the tagged facets are the
     boundary's, a few thousand, so sending them all to every rank is cheap."""
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py)
     from .. import compat
 
     facets, tags = tagged
@@ -179,6 +181,7 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
 
     ``msh_file``: also write the grid there as a gmsh model (rank 0).
     """
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py)
     from .. import compat
 
     if comm.rank == 0:
@@ -204,6 +207,7 @@ def build(spec: MeshSpec, comm, msh_file: str | None = None) -> PlateMesh:
 
 def info(pm: PlateMesh) -> dict:
     """Global sizes of a built mesh (collective)."""
+    # lazy: start-up time (mpi4py initialises MPI; callers that need none load none)
     from mpi4py import MPI
 
     from .. import compat

@@ -47,6 +47,7 @@ class Numbering(NamedTuple):
 def numbering(pm, V) -> Numbering:
     """The numbering of the distributed mesh ``pm`` and its P1 vector space ``V``
     (collective: one allgather of the owned blocks' global indices)."""
+    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py)
     from .. import compat
 
     x, cells, _, facets, facet_tags = pm.spec.grid_arrays()

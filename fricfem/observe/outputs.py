@@ -16,6 +16,9 @@ import sys
 import threading
 import time
 
+from ..output.quantities import ENERGY, GAUGES_FILE
+from ..output.record import replace_texts
+
 #: the parts of the time loop timed in summary.json's ``loop_cost``: the step
 #: (``step``: the steps without energies; ``energy``: what the energy evaluation
 #: adds to a step, estimated as the energy steps' time beyond that of as many
@@ -75,8 +78,6 @@ class Energies:
     def finish(self, state) -> dict:
         """summary.json's ``energy`` budget [J/m]: at the run's last step, or at the last
         evaluation when the run stopped early."""
-        from ..output.quantities import ENERGY
-
         e = self.end if self.end is not None else self.last
         if e is None:
             return {"energy": None}
@@ -145,7 +146,6 @@ class Gauges:
         try:
             self.writer.close()
         except OSError as err:  # the laid-out file stays, its NaN rows not computed
-            from ..output.quantities import GAUGES_FILE
 
             return {"gauges_file": f"{GAUGES_FILE} kept as laid out (rows past the run's end are NaN), not "
                                    f"compacted: {err.filename}: {err.strerror}"}
@@ -302,8 +302,6 @@ class Flusher:
         now = time.perf_counter()
         if self.rank0 and now - self.last_summary >= self.flush_every:
             # the text now, the files while the loop goes on (a rename waits for the disk)
-            from ..output.record import replace_texts
-
             self.last_summary = now
             self.background.submit(replace_texts, self.summary(state))
         self.last = time.perf_counter()

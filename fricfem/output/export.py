@@ -23,6 +23,7 @@ from __future__ import annotations
 import datetime
 import math
 import os
+from importlib.metadata import version
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,6 @@ def scec_text(name: str, s: dict, summary: dict, date: str, author: str = "") ->
 
 def _version() -> str:
     try:
-        from importlib.metadata import version
-
         return version("fricfem")
     except Exception:
         return "unknown"

@@ -115,6 +115,7 @@ def _space(folder: Path) -> str:
 def _label_units(path: Path, group: str, units: dict) -> None:
     """A ``unit`` attribute on every dataset under ``group/<name>`` of a file not yet
     renamed into place (``mesh``: the geometry's coordinates; topology is indices)."""
+    # lazy: start-up time (h5py only once a file is read or written)
     import h5py
 
     with h5py.File(path, "r+") as f:
@@ -205,6 +206,7 @@ class FieldWriter:
         if self.comm.rank == 0:
             self.mesh_grid = ET.tostring(_mesh_xml(mesh_xdmf, f"{FIELDS_DIR}/{MESH_FILE}"), encoding="unicode")
             _label_units(self.dir / ".mesh.h5", "Mesh", {"mesh": "m"})
+            # lazy: start-up time (h5py only once a file is read or written)
             import h5py
 
             with h5py.File(self.dir / ".mesh.h5", "r") as f:
@@ -275,6 +277,7 @@ class FieldWriter:
     def _write_snapshot(self, values: dict, t: float) -> None:
         """Rank 0: the snapshot's file (temporary name, renamed when complete),
         then ``fields.xdmf`` listing it."""
+        # lazy: start-up time (h5py only once a file is read or written)
         import h5py
 
         k = len(self.grids) + 1
@@ -341,6 +344,7 @@ class FieldWriter:
         if self.comm.rank != 0:
             return
         if old_mesh is not None and Path(old_mesh).exists():
+            # lazy: start-up time (h5py only once a file is read or written)
             import h5py
 
             with h5py.File(self.dir / MESH_FILE, "r") as f:
@@ -375,6 +379,7 @@ class FieldWriter:
 
 def _read(path: Path, name: str) -> np.ndarray:
     """``/Mesh/mesh/<name>`` of a mesh file."""
+    # lazy: start-up time (h5py only once a file is read or written)
     import h5py
 
     with h5py.File(path, "r") as f:

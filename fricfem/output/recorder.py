@@ -39,7 +39,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..kernels.watch import take_rows
+from .directory import RunDirError
 from .quantities import ENERGY, FORMAT, QUANTITIES, unit
+from .quantities import BY_NAME
 from .regions import write_regions
 
 #: rows written per block when a dataset is copied
@@ -57,6 +59,7 @@ def planned_rows(n_steps: int, every: int, energy_every: int) -> dict:
 
 def _dataset(group, name: str, shape, dtype, unit_: str):
     """A contiguous dataset allocated and filled (NaN, or -1 for integers) at creation."""
+    # lazy: start-up time (h5py only once a file is read or written)
     import h5py
 
     dtype = np.dtype(dtype)
@@ -127,12 +130,11 @@ class Recorder:
                 error = f"{err.filename}: cannot write the run's interface file ({need / 1e6:.3g} MB): {err.strerror}"
         error = self.comm.bcast(error, root=0)
         if error is not None:
-            from .directory import RunDirError
-
             raise RunDirError(error)
 
     def _create(self, scene, speeds):
         """Lay the file out whole under a temporary name, flush it, rename it (rank 0)."""
+        # lazy: start-up time (h5py only once a file is read or written)
         import h5py
 
         tmp = self.path.with_name(f".{self.path.name}.part")
@@ -318,6 +320,7 @@ class Recorder:
         prefix), and into rank 0's history; the rows after them stay NaN until the
         run writes them again.  A :class:`~.directory.RunDirError` on every rank when
         ``old`` holds fewer rows than the checkpoint counts."""
+        # lazy: start-up time (it loads h5py)
         from .rundir import _h5open, valid_rows
 
         self.station_n = {name: int(rows["stations"].get(name, 0)) for name in self.stations}
@@ -361,8 +364,6 @@ class Recorder:
                 error = f"{old}: cannot resume from it: {err.strerror if isinstance(err, OSError) else err}"
         error = self.comm.bcast(error, root=0)
         if error is not None:
-            from .directory import RunDirError
-
             raise RunDirError(error)
 
     def history(self):
@@ -431,6 +432,7 @@ def compact(path: Path, rows: dict) -> None:
     dataset of each group ("" the root; ``x1`` whole), with the counts as the
     attributes ``n_time`` (root) and ``n`` (each other group), written under a
     temporary name and renamed over it."""
+    # lazy: start-up time (h5py only once a file is read or written)
     import h5py
 
     path = Path(path)
@@ -481,6 +483,7 @@ def _count_attrs(f, rows: dict) -> None:
 
 def _full(path: Path, rows: dict) -> bool:
     """Whether every dataset of ``path`` has exactly the rows :func:`compact` would keep."""
+    # lazy: start-up time (h5py only once a file is read or written)
     import h5py
 
     full = True
@@ -540,8 +543,6 @@ def interface_profile(interface, points, names=("slip_rate", "shear_traction")) 
     """All ranks' interface ``points`` (a state's, ``state.points``) now, sorted by x1:
     ``{"x1": ..., name: ...}`` for quantities of :data:`.quantities.QUANTITIES` and
     the law's state variables (collective)."""
-    from .quantities import BY_NAME
-
     comm = interface.geometry.comm
     p = points
     x1 = np.concatenate(comm.allgather(interface.geometry.x1))

@@ -16,6 +16,7 @@ import dataclasses
 import logging
 import math
 import os
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import h5py
@@ -243,6 +244,7 @@ def pyvista_module():
     """pyvista set up for off-screen rendering, or None if it is not installed."""
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     try:
+        # lazy: pyvista is optional and slow to import
         import pyvista
     except ImportError:
         return None
@@ -269,8 +271,6 @@ class FieldReader:
     """
 
     def __init__(self, path, name: str = "stress_difference"):
-        import xml.etree.ElementTree as ET
-
         self.path = Path(path)
         self.name = name
         try:

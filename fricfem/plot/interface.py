@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -100,8 +101,6 @@ def _draw_regions(axes, spans, xlim) -> None:
 def _step(itf) -> float | None:
     """The run's time step [s]: summary.json's ``dt_s`` next to interface.h5, else the file's
     ``dt`` attribute; None if neither says."""
-    import json
-
     try:
         summary = json.loads((Path(itf.file.filename).parent / "summary.json").read_text())
         dt = summary.get("dt_s")

@@ -150,6 +150,7 @@ def isochromatics(fields_path, out_dir, *, times=None, info: RunInfo | None = No
     """
     info = info or RunInfo()
     if window is None:
+        # lazy: start-up time (it loads matplotlib)
         from .common import has_impact
 
         window = ISO_WINDOW if has_impact(info) else (-math.inf, math.inf, -math.inf, math.inf)

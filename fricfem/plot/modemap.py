@@ -80,6 +80,7 @@ def _markers(ax, sigma0, v_imp, labels, conf) -> None:
 def _cells(ax, sigma0, v_imp, labels, conf, computed) -> list:
     """One coloured cell per point (pale when inferred), a dot per computed point,
     a ring on the uncertain ones; returns the legend's proxies for the cells."""
+    # lazy: start-up time (matplotlib is slow to import, only for a figure)
     from matplotlib.patches import Patch, Rectangle
 
     xe, ye = cell_edges(sigma0, v_imp)
@@ -137,6 +138,7 @@ def draw(ax, sigma0, v_imp, labels, title: str = "", conf=None, computed=None) -
         ax.minorticks_off()
         ax.grid(True, which="major", lw=0.3, alpha=0.5)
     else:
+        # lazy: start-up time (matplotlib is slow to import, only for a figure)
         from matplotlib.ticker import FixedLocator, NullLocator
 
         for axis, lo, hi in ((ax.xaxis, xe[0], xe[-1]), (ax.yaxis, ye[0], ye[-1])):
@@ -159,6 +161,7 @@ def figure(maps: dict, path: Path, note: str | None = None, suptitle: str | None
     import matplotlib
 
     matplotlib.use("Agg")
+    # lazy: start-up time (matplotlib is slow to import, only for a figure)
     import matplotlib.pyplot as plt
 
     n = len(maps)

@@ -120,6 +120,7 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
 
 def _gauge_figure(rundir: Path, out: Path, info: RunInfo) -> list[Path]:
     """``gauges.png`` when the run wrote gauges (``output.gauges``) with rows."""
+    # lazy: start-up time (it loads numba, h5py)
     from ..output.gauges import GAUGES_FILE, open_gauges
 
     try:

@@ -91,6 +91,7 @@ def spacetime(src, path, *, summary: dict | None = None, info: RunInfo | None = 
 
 
 def _viridis_with_white():
+    # lazy: start-up time (matplotlib is slow to import, only for a figure)
     import matplotlib
 
     cmap = matplotlib.colormaps["viridis"].copy()

@@ -50,9 +50,15 @@ Budget (:data:`BUDGET`): a run above any of these is refused unless
 from __future__ import annotations
 
 import math
+import os
+import sys
 from typing import NamedTuple
 
 import numpy as np
+
+from ..model.bodies import _steel_axis
+from ..model.grid import axis_nodes
+from .schema import SceneError
 
 #: Refused unless ``--force``: quadrilaterals, steps, dofs × steps, interface output bytes.
 BUDGET = {"quads": 5e6, "steps": 2e6, "dof_steps": 2e11, "output_bytes": 2e10}
@@ -190,8 +196,6 @@ def size_bound(spec) -> float:
 
 def axes(spec) -> tuple:
     """The grid's node lines (x1 nodes, x2 nodes of one plate from the interface), exact."""
-    from ..model.grid import axis_nodes
-
     xs = axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
     ys = axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size, (spec.impact_b,))
     return xs, ys
@@ -229,8 +233,6 @@ def steel(exp, ys) -> tuple:
     the larger of the two triangles of the narrowest steel cell (steel_dx × the
     smallest x2 spacing) with its lumped mass; the bodies' thickness factors scale
     stiffness and mass alike, so they leave it unchanged."""
-    from ..model.bodies import _steel_axis
-
     nb = len(_steel_axis(-exp.buffer_length, 0.0, exp.steel_dx)) - 1
     n_p = len(_steel_axis(-exp.buffer_length - exp.projectile_length, -exp.buffer_length, exp.steel_dx)) - 1
     ny = len(ys) - 1
@@ -279,8 +281,6 @@ def node_ranks() -> tuple:
     """(ranks of the run, ranks on this node), without a collective call: from the MPI
     launcher's environment (Open MPI's ``OMPI_COMM_WORLD_SIZE``/``_LOCAL_SIZE``, MPICH's
     ``PMI_SIZE``/``MPI_LOCALNRANKS``), else mpi4py's world if it is loaded, else (1, 1)."""
-    import os
-    import sys
 
     env = os.environ
     for world, local in (("OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_LOCAL_SIZE"), ("PMI_SIZE", "MPI_LOCALNRANKS")):
@@ -348,8 +348,6 @@ def check(scene, force: bool = False, ranks=None, available=None) -> Estimate:
     states both.  ``ranks``: (ranks of the run, ranks on this node), default
     :func:`node_ranks`; ``available`` [bytes]: default :func:`available_bytes`
     (None: not checked).  Not collective."""
-    from .schema import SceneError
-
     n, local = node_ranks() if ranks is None else ranks
     est = estimate(scene, n)
     hard = est.over(HARD)
