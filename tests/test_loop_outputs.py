@@ -6,6 +6,7 @@ the final progress line, and a missing mode read as unknown."""
 from __future__ import annotations
 
 import json
+import time
 from types import SimpleNamespace
 
 import numpy as np
@@ -144,9 +145,17 @@ def test_periodic_summary_and_final_progress_carry_the_spike(comm, tmp_dir_share
     out = tmp_dir_shared / "spike"
     during = []
 
+    def read():
+        return json.loads((out / "summary.json").read_text())
+
     def look(st):
         if comm.rank == 0:
-            doc = json.loads((out / "summary.json").read_text())
+            doc = read()
+            if st.n == 30:  # the event, not the writer's lag: a summary submitted after the spike is on disk
+                give_up = time.monotonic() + 120  # (only so that a broken writer fails instead of hanging)
+                while doc["steps"] < 20 and time.monotonic() < give_up:  # a flush every 10 steps: one in 20..30
+                    time.sleep(0.005)
+                    doc = read()
             if doc["steps"] > 0:
                 during.append(doc.get("slip_rate_spike"))
 
