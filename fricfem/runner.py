@@ -33,6 +33,10 @@ from mpi4py import MPI
 
 from . import scene as scene_mod
 from . import observe
+from . import analysis
+from .friction import BUILT_IN, LAWS
+from .model.bodies import field_moduli, launch
+from .output.fields import FieldWriter
 from .model.build import build_model
 from .output.quantities import FIELDS_FILE, GAUGES_FILE, INTERFACE_FILE
 from .output.gauges import GaugeWriter
@@ -77,8 +81,6 @@ def check_laws(scene: Scene, comm) -> None:
     rank naming the law and the ranks that have it (fricfem.register_law runs on each)."""
     if comm.size == 1:
         return
-    # lazy: start-up time (it loads numba)
-    from .friction import BUILT_IN, LAWS
 
     mine = {name: repr((law.params, law.state, law.memo)) for name, law in LAWS.items() if name not in BUILT_IN}
     everyone = comm.allgather((mine, scene.law))
@@ -132,9 +134,6 @@ def _diagnose(rec: Recorder, tip_t, tip_x, speeds, every: int) -> dict:
     tip sampled at the interface-snapshot cadence (``every`` steps), so that a
     window spans a few Gauss-point spacings rather than one staircase step.
     """
-    # lazy: start-up time (it loads numba, h5py)
-    from . import analysis
-
     out = {}
     t = np.asarray(tip_t)
     x = np.asarray(tip_x)
@@ -230,8 +229,6 @@ def _run(scene: Scene, out: Path, comm, quiet: bool, on_step, build, t_start: fl
     _check_step(scene, model, comm)
     state = State(model, skip_quiet=scene.skip_quiet)
     if model.bodies is not None:  # the projectile moves at t = 0
-        # lazy: start-up time (it loads numba)
-        from .model.bodies import launch
 
         launch(model, state)
     every = max(1, int(round(scene.output.interface_every / model.dt)))  # steps between interface snapshots
@@ -260,13 +257,9 @@ def _field_writer(scene: Scene, model, out: Path):
     """The field snapshots' writer (output.fields and the isochromatic frames), or None."""
     if not (scene.output.fields or scene.output.frames):
         return None
-    # lazy: start-up time (it loads mpi4py, dolfinx, petsc4py, numba)
-    from .output.fields import FieldWriter
 
     moduli = scene.material
     if model.bodies is not None:  # steel in the buffer and the projectile
-        # lazy: start-up time (it loads numba)
-        from .model.bodies import field_moduli
 
         moduli = field_moduli(model.V, scene.mesh, scene.material, scene.experiment)
     return FieldWriter(out / FIELDS_FILE, model.V, moduli, scene.sigma0, scene.tau0)
@@ -295,8 +288,6 @@ def observers(scene: Scene, model, state, rec: Recorder, writer, out: Path, summ
     ``on_step(state)``, the progress line.  Collective (the gauges' file)."""
     comm = model.comm
     look = observe.Look(model.interface.geometry.x1)
-    # lazy: start-up time (it loads numba)
-    from .friction import BUILT_IN
 
     law_watch = None if model.interface.law.name in BUILT_IN else observe.LawWatch(model.interface, state.points)
     watchdog = observe.Watchdog(model, scene.watchdog, look, scene.output.energy_every, law_watch)

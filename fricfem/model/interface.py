@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from petsc4py import PETSc
 
+from ..friction import BUILT_IN, initial_state
 from ..friction.base import storage
 from .grid import TAGS
 
@@ -263,9 +264,6 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs, state_Ts0=None) -> Points:
     params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
     rows, index = np.unique(params, axis=0, return_inverse=True)
     state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
-    # lazy: start-up time (it loads numba)
-    from ..friction import BUILT_IN, initial_state
-
     if law.name in BUILT_IN:
         for q in range(n):  # once, at set-up
             state[q] = storage(law, law.initial_state(params[q], Tn0[q], Tss[q]))
