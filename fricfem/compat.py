@@ -50,7 +50,7 @@ def coordinate_element():
     if LEGACY:
         cell = ufl.Cell("triangle", geometric_dimension=2)
         return ufl.Mesh(ufl.VectorElement(ufl.FiniteElement("Lagrange", cell, 1, variant="equispaced")))
-    # lazy: start-up time (dolfinx/petsc4py are slow to import)
+    # here: the newer dolfinx API only (the LEGACY dolfinx 0.5 path above has none of it)
     import basix
     import basix.ufl
 
@@ -101,7 +101,7 @@ def distributed_meshtags(msh, dim: int, entities, values):
     if LEGACY:
         ents, vals = _cpp.io.distribute_entity_data(msh._mesh, dim, entities, values)
         return _dmesh.meshtags_from_entities(msh, dim, _cpp.graph.AdjacencyList_int32(ents), vals.astype(np.int32))
-    # lazy: start-up time (dolfinx/petsc4py are slow to import)
+    # here: the newer dolfinx API only (the LEGACY dolfinx 0.5 path above has none of it)
     import dolfinx.graph
     from dolfinx.io.utils import distribute_entity_data
 

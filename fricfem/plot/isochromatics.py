@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, log, time_tag
-from .common import DPI, save, us
+from .common import DPI, has_impact, save, us
 
 #: Defaults of the fringe order N = (σ1 − σ2) h / f_σ (a scene's ``output.f_sigma``, ``output.thickness``):
 #: the stress-optic constant commonly quoted for Homalite-100 [N/m] (the paper gives none: docs/model.md §10)
@@ -150,9 +150,6 @@ def isochromatics(fields_path, out_dir, *, times=None, info: RunInfo | None = No
     """
     info = info or RunInfo()
     if window is None:
-        # lazy: start-up time (it loads matplotlib)
-        from .common import has_impact
-
         window = ISO_WINDOW if has_impact(info) else (-math.inf, math.inf, -math.inf, math.inf)
     reader = FieldReader(fields_path)
     if len(reader.times) == 0:

@@ -34,6 +34,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..output.gauges import GAUGES_FILE, open_gauges
 from ..output.quantities import FIELDS_FILE, INTERFACE_FILE
 from ..output.recorder import h5_error
 from ..output.rundir import FieldReader, InterfaceFile, RunInfo, pyvista_module, log, open_interface, read_summary, \
@@ -120,9 +121,6 @@ def plot_run(rundir, times=None, out=None, max_figures: int = MAX_FIGURES) -> li
 
 def _gauge_figure(rundir: Path, out: Path, info: RunInfo) -> list[Path]:
     """``gauges.png`` when the run wrote gauges (``output.gauges``) with rows."""
-    # lazy: start-up time (it loads numba, h5py)
-    from ..output.gauges import GAUGES_FILE, open_gauges
-
     try:
         gauges = open_gauges(rundir)
     except OSError as err:

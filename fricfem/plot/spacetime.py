@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
@@ -91,9 +92,6 @@ def spacetime(src, path, *, summary: dict | None = None, info: RunInfo | None = 
 
 
 def _viridis_with_white():
-    # lazy: start-up time (matplotlib is slow to import, only for a figure)
-    import matplotlib
-
     cmap = matplotlib.colormaps["viridis"].copy()
     cmap.set_bad("white")
     return cmap
