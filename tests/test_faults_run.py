@@ -431,17 +431,10 @@ import sys
 import numba, numpy as np
 from mpi4py import MPI
 import fricfem
-from fricfem.friction import Law, Param, frictional_work
+from fricfem.friction import Law, Param
 
-@numba.njit
-def advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
-    trial = Ts + Cs * vs * dt
-    strength = p[0] * Tn1
-    if abs(trial) <= strength:
-        return trial, 0.0, 0.0, 0.0, 1
-    dslip = (abs(trial) - strength) / Cs
-    Ts1 = strength if trial > 0 else -strength
-    return Ts1, dslip / dt, dslip, frictional_work(Ts, Ts1, dslip), 1
+sys.path.insert(0, TESTS)
+from userlaws import coulomb_advance as advance
 
 @numba.njit
 def mu(p, v):
@@ -462,7 +455,7 @@ def test_a_law_registered_on_one_rank_ends_the_job(comm, tmp_dir_shared):
     what is wrong."""
     def work():
         script = tmp_dir_shared / "one_rank_law.py"
-        script.write_text(ONE_RANK_LAW)
+        script.write_text(ONE_RANK_LAW.replace("TESTS", repr(str(Path(__file__).parent))))
         res = subprocess.run(["mpirun", "-n", "2", sys.executable, str(script), str(tmp_dir_shared / "out")],
                              capture_output=True, text=True, env=faults.clean_env(), timeout=900)
         return res.returncode, res.stderr
