@@ -20,9 +20,12 @@ import pytest
 from mpi4py import MPI
 
 from fricfem import load_scene, open_run, runner
+from fricfem.model.build import build_model
 from fricfem.output import quantities
 from fricfem.output.record import EVIDENCE_FILE, read_evidence, read_summary
 from fricfem.output.rundir import FieldReader
+from fricfem.step import State, evolve
+from fricfem.step.stepper import energies_at
 from rankcheck import serial_env
 
 RANK = MPI.COMM_WORLD.rank
@@ -63,24 +66,48 @@ def test_units_in_every_file(run):
 
 
 def test_energy_is_reported_at_the_end_time(run, comm, tmp_dir_shared):
-    """The summary's energy is taken in the last step (t_end − dt), not at the last
-    evaluation of the cadence (every 50 steps), and equals what a run evaluating
-    every step records there."""
+    """The summary's energy is at the run's end time t_s (the state after its last
+    step), not at the last evaluation of the cadence (every 50 steps) nor at the
+    last step's start, and equals what a run one step longer, evaluating every
+    step, records at t_s; the balance closes there."""
     out, record = run
     e = record["energy"]
     assert e["at"] == "end"
-    assert e["time_s"] == pytest.approx(record["t_s"] - record["dt_s"], rel=1e-12)
+    assert e["time_s"] == record["t_s"]
+    assert abs(e["balance_error"]) <= 1e-9 * e["external"]
     history = open_run(out).energy["time"] if RANK == 0 else None
     if RANK == 0:
         assert history[-1] < e["time_s"] - 10 * record["dt_s"]  # the cadence stops well before the end
-    every = runner.run_scene(load_scene("case1", SHORT + ["output.energy_every=1", "output.fields=[]"]),
+    longer = [k for k in SHORT if not k.startswith("time.end")] + [f"time.end={record['t_s'] + 1.5 * record['dt_s']!r}"]
+    every = runner.run_scene(load_scene("case1", longer + ["output.energy_every=1", "output.fields=[]"]),
                              tmp_dir_shared / "every", comm, quiet=True)
+    assert every["steps"] == record["steps"] + 1
     if RANK == 0:
         h = open_run(tmp_dir_shared / "every").energy
-        assert h["time"][-1] == e["time_s"]
+        assert h["time"][-1] == e["time_s"]  # the longer run's last row: t_s, the step it took from there
         for k in ("kinetic", "strain", "external", "dissipated"):
-            assert e[k] == pytest.approx(h[k][-1], rel=1e-12, abs=1e-12)
-    assert every["energy"]["time_s"] == e["time_s"]
+            assert e[k] == h[k][-1]  # the same step, taken and undone: the same bits
+
+
+def test_the_end_energy_leaves_the_state_as_it_was(comm):
+    """Taking the end energies (one more step, undone) leaves u, v, t, n and the
+    interface points as a run without them: a run continued afterwards gives
+    the same bits as one never stopped to take them."""
+    _, model = build_model(load_scene("case1", SHORT), comm)
+    a, b = State(model), State(model)
+    for _ in evolve(model, a, 60 * model.dt):
+        pass
+    for _ in evolve(model, b, 40 * model.dt):
+        pass
+    e = energies_at(model, b)
+    assert e["time"] == b.t and b.n == 40
+    for _ in evolve(model, b, 60 * model.dt):
+        pass
+    assert b.n == a.n and b.t == a.t
+    assert np.array_equal(a.u.array_r, b.u.array_r) and np.array_equal(a.v.array_r, b.v.array_r)
+    for field in a.points.evolving:
+        x, y = np.asarray(getattr(a.points, field)), np.asarray(getattr(b.points, field))
+        assert x.tobytes() == y.tobytes(), field
 
 
 def test_per_step_arrays_live_in_the_evidence_file(run):

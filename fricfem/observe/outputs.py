@@ -47,9 +47,9 @@ class Stations:
 
 class Energies:
     """The energies: a row of the recorder at each step on the cadence
-    ``energy_every`` (:attr:`last`, the latest), and those of the run's last step
-    ``n_end`` (:attr:`end`: at t^n of the step that reached the end time, the
-    last time the energies can be had)."""
+    ``energy_every`` (:attr:`last`, the latest), and those at the run's end time
+    (:attr:`end`: the state after its last step ``n_end``, t^N; the loop hands
+    them to :meth:`at_end`)."""
 
     part = "watch"
 
@@ -66,8 +66,10 @@ class Energies:
         if self.every and (state.n - 1) % self.every == 0:
             self.last = energy
             self.rec.energy(energy)
-        if state.n == self.n_end:
-            self.end = energy
+
+    def at_end(self, state, energy) -> None:
+        """The energies at the end time t^N (``state.t``), the loop's last hand-out."""
+        self.end = energy
 
     def snapshot(self) -> dict:
         return {"last": self.last, "end": self.end}

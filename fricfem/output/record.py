@@ -149,14 +149,17 @@ def split(record: dict) -> tuple[dict, dict]:
         summary["mode"] = mode
     energy = summary.get("energy")
     if isinstance(energy, dict) and isinstance(energy.get("time_s"), float) and isinstance(summary.get("t_s"), float):
-        # say which time the end-of-run budget is at: the last step's energies are at its start
+        # say which time the end-of-run budget is at: the end time, or the last evaluation of a run stopped early
         lag = summary["t_s"] - energy["time_s"]
         summary["end_times"] = {
             "t_end_s": summary.get("t_end_s"), "t_s": summary["t_s"], "energy_time_s": energy["time_s"],
-            "note": (f"the run ends at t_s = {summary['t_s'] * 1e6:.6g} us, the last whole step not past "
-                     f"time.end; the energy budget is at {energy['time_s'] * 1e6:.6g} us"
-                     + (" (the start of the last step: the kinetic energy there needs v^(n+1/2), which that step "
-                        "computes)" if lag > 0 else ""))}
+            "note": (f"the run ends at t_s = {summary['t_s'] * 1e6:.6g} us"
+                     + (f", the last whole step not past time.end = {summary['t_end_s'] * 1e6:.6g} us (steps of "
+                        f"{summary['dt_s'] * 1e6:.4g} us)" if isinstance(summary.get("t_end_s"), float)
+                        and isinstance(summary.get("dt_s"), float) else "")
+                     + f"; the energy budget is at {energy['time_s'] * 1e6:.6g} us"
+                     + (" (the run's end time)" if lag == 0 else
+                        " (the last evaluation before the run stopped)"))}
     if evidence:
         summary["evidence"] = EVIDENCE_FILE
     summary["units"] = UNITS

@@ -119,8 +119,11 @@ def evolve(model, state, t_end: float, energy_every: int = 0, observers=(), *, t
            end_energy: bool = False, stepper=None):
     """The time loop: step ``state`` until ``t_end`` [s] or until an observer says
     stop; yields ``(state, energy or None)`` after every step and its observers,
-    the energies at t^n of the step every ``energy_every`` steps (0: never) and,
-    with ``end_energy``, in the last step too (the last time they can be had).
+    the energies at t^n of the step every ``energy_every`` steps (0: never).
+    With ``end_energy``, a run that reaches ``t_end`` takes the energies at its
+    end time t^N as well (:func:`energies_at`: one more step, undone) and hands
+    them to each observer that has ``at_end(state, energy)``, then yields
+    ``(state, energy)`` once more (the state is unchanged: t^N).
     Its return value (``StopIteration.value``; :func:`run`) is why it stopped:
     the first stop reason of the observers in their order, or None (``t_end``).
 
@@ -154,7 +157,7 @@ def evolve(model, state, t_end: float, energy_every: int = 0, observers=(), *, t
 def _plain(model, state, n_end, energy_every, end_energy, stepper, contributors, reduce, observers):
     """:func:`evolve` without timing."""
     while state.n < n_end:
-        e = {} if (energy_every and state.n % energy_every == 0) or (end_energy and state.n == n_end - 1) else None
+        e = {} if energy_every and state.n % energy_every == 0 else None
         stepper(model, state, e)
         for o in contributors:
             o.contribute(state, e)
@@ -168,7 +171,33 @@ def _plain(model, state, n_end, energy_every, end_energy, stepper, contributors,
         yield state, e
         if stop is not None:
             return stop
+    if end_energy and state.n == n_end:
+        yield state, _at_end(model, state, stepper, observers)
     return None
+
+
+def energies_at(model, state, stepper=None) -> dict:
+    """The energies at the state's time t^n [J/m] (collective), as :func:`step`
+    gives them for t^n: the kinetic energy there needs v^{n+½}, so this takes one
+    more step and puts the state back as it was (:meth:`State.snapshot` /
+    :meth:`State.restore`; the per-phase wall times too)."""
+    stepper = step if stepper is None else stepper
+    saved, seconds = state.snapshot(), dict(state.seconds)
+    energy: dict = {}
+    stepper(model, state, energy)
+    state.restore(saved)
+    state.seconds = seconds
+    return energy
+
+
+def _at_end(model, state, stepper, observers) -> dict:
+    """The energies at the end time, handed to the observers that take them."""
+    energy = energies_at(model, state, stepper)
+    for o in observers:
+        at_end = getattr(o, "at_end", None)
+        if at_end is not None:
+            at_end(state, energy)
+    return energy
 
 
 def _groups(observers, verb: str) -> list:
@@ -192,7 +221,7 @@ def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors,
         cost.setdefault(name, 0.0)
     timing.t0 = clock()
     while state.n < n_end:
-        e = {} if (energy_every and state.n % energy_every == 0) or (end_energy and state.n == n_end - 1) else None
+        e = {} if energy_every and state.n % energy_every == 0 else None
         t0 = clock()
         stepper(model, state, e)
         t1 = ts = clock()
@@ -228,6 +257,12 @@ def _timed(model, state, n_end, energy_every, end_energy, stepper, contributors,
         yield state, e
         if stop is not None:
             return stop
+    if end_energy and state.n == n_end:
+        t0 = clock()
+        energy = _at_end(model, state, stepper, observers)
+        cost["step_with_energy"] += clock() - t0
+        timing.energy_steps += 1
+        yield state, energy
     return None
 
 
