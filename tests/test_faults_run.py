@@ -26,7 +26,7 @@ import numba
 import numpy as np
 import pytest
 from rankcheck import count_calls, differing, h5_arrays, on_rank0
-from userlaws import coulomb_advance
+from userlaws import coulomb_advance, coulomb_rigid
 
 import faults
 import fricfem
@@ -347,6 +347,13 @@ def _wears_always(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
 
 
 @numba.njit
+def _rigid_wears(p, s, T_stick, Z, Tn0, Tn1, dt):
+    if T_stick > 1e12:
+        p[0] = 0.0
+    return coulomb_rigid(p, s, T_stick, Z, Tn0, Tn1, dt)
+
+
+@numba.njit
 def _always_nsub(p, s, Ts, Tn0, Tn1, vs, Cs, dt):
     Ts1, v, dslip, work, n = coulomb_advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)
     return Ts1, v, dslip, work, -5
@@ -373,14 +380,17 @@ def _divides_in_a_run(p, Tn0, Ts0):
     return np.array([1.0 / float(Ts0 - 3e6)])  # the registration's Ts0 = 0 passes; a run's tau0 = 3 MPa does not
 
 
-def _law(name, advance=coulomb_advance, initial_state=_zero):
+def _law(name, advance=coulomb_advance, initial_state=_zero, rigid=None):
     return Law(name=name, doc="a test law", params=(Param("mu", 0.5, "", 0.0, 2.0, "friction coefficient"),),
-               state=("theta",), advance=advance, steady_mu=_mu, initial_state=initial_state)
+               state=("theta",), advance=advance, steady_mu=_mu, initial_state=initial_state, rigid=rigid)
 
 
 @pytest.mark.parametrize("kw, message", [
     ({"advance": _always_nsub}, r"nsub = -5"),
-    ({"advance": _wears_always}, r"advance wrote into its parameter array p .*mu = \[0.5\] became"),
+    ({"advance": _wears_always}, r"register_law\('broken'\): advance writes into its parameter array p "
+                                 r"\(line \d+ of .*test_faults_run.py\); p is read-only"),
+    ({"advance": _wears}, r"advance writes into its parameter array p \(line \d+ of"),  # on a branch never taken here
+    ({"rigid": _rigid_wears}, r"register_law\('broken'\): rigid writes into its parameter array p"),
     ({"initial_state": _nan}, r"initial_state\(p, Tn0 = 1e\+06 Pa, Ts0 = 0 Pa\) returned \[nan\]: every state"),
     ({"initial_state": _divides}, r"register_law\('broken'\): initial_state\(p, Tn0 = 1e\+06 Pa, Ts0 = 0 Pa\) "
                                   r"failed: ZeroDivisionError"),
@@ -395,7 +405,6 @@ def test_register_law_refuses_more_of_the_contract(kw, message, clean_laws):
     (_backwards, "a negative slip rate"),
     (_no_work, "its work does not balance"),
     (_negative_nsub, "nsub < 0"),
-    (_wears, "it wrote into its parameter array p"),
 ])
 def test_a_user_law_that_breaks_its_contract_in_a_run_is_stopped(comm, tmp_dir_shared, clean_laws, advance, why):
     """Laws that pass registration and break the contract in the run: the run is

@@ -1,6 +1,7 @@
 """Friction laws: one module each, the same contract (see :mod:`.base`), a registry by name."""
 
 import math
+import re
 
 import numpy as np
 
@@ -44,6 +45,7 @@ def _smoke(law: Law) -> None:
     p = pack(law, defaults(law))
     kept = p.copy()
     state = initial_state(law, p, 1e6, 0.0, where)
+    _read_only(where, "advance", law.advance, (p, storage(law, state), 0.0, 1e6, 1e6, 0.0, 1e11, 1e-8))
     for vs in (0.0, 1e3):  # a sticking and a strongly loaded step
         _call(where, "advance(p, s, Ts, Tn0, Tn1, vs, Cs, dt)", "Ts1", law.advance,
               (p, storage(law, state), 0.0, 1e6, 1e6, vs, 1e11, 1e-8))
@@ -78,9 +80,31 @@ def initial_state(law: Law, p, Tn0: float, Ts0: float, where: str = "") -> np.nd
 def _smoke_rigid(law: Law, p, state, where: str) -> None:
     """The optional ``rigid`` verb, called as the split-node kernel will: a stuck
     and a strongly loaded pair (Z = 1e7 Pa s/m, T_n = 1 MPa, dt = 10 ns)."""
+    _read_only(where, "rigid", law.rigid, (p, storage(law, state), 0.0, 1e7, 1e6, 1e6, 1e-8))
     for T_stick in (0.0, 1e7):
         _call(where, "rigid(p, s, T_stick, Z, Tn0, Tn1, dt)", "Ts", law.rigid,
               (p, storage(law, state), T_stick, 1e7, 1e6, 1e6, 1e-8))
+
+
+def _read_only(where: str, verb: str, fn, args) -> None:
+    """Compile ``fn`` for a read-only parameter array, as a run's kernel holds it
+    (the model's ``param_rows``): a verb that writes ``p`` anywhere, even on a
+    branch no call takes, is refused here, by its name and line, before any run
+    (numba refuses to compile the write).  Other failures are left to
+    :func:`_call`, which calls the verb with a writeable ``p``."""
+    p = np.array(args[0])
+    p.setflags(write=False)
+    try:
+        fn(p, *args[1:])
+    except Exception as err:
+        text = str(err)
+        if "readonly array" not in text:
+            return
+        at = re.findall(r'File "([^"]+)", line (\d+)', text)
+        line = f" (line {at[-1][1]} of {at[-1][0]})" if at else ""
+        raise ValueError(f"{where}: {verb} writes into its parameter array p{line}; p is read-only by the "
+                         f"contract (a run's parameters are the model's, shared by every step and run): keep "
+                         f"what changes in the state s") from None
 
 
 def _call(where: str, signature: str, first: str, fn, args) -> None:

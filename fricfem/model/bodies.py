@@ -299,7 +299,9 @@ def attach(num, K, mass, comm, friction_interface, spec: BodiesMesh, exp: Experi
     contact = RigidInterface(geom, points, LAW, slot="contact")
     blocks = np.concatenate([_handled_blocks(num, friction_interface.geometry), contact_blocks])
     both = WithContact(friction_interface, contact, blocks, template)
-    return both, Launch(exp, spec, projectile_nodes(num, spec), contact)
+    nodes = projectile_nodes(num, spec)
+    nodes.setflags(write=False)  # the model's
+    return both, Launch(exp, spec, nodes, contact)
 
 
 def launch(model, state) -> None:

@@ -159,7 +159,7 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
                      dashpots(num, tuple(absorbing), material))
     dt_minv = dt / mass
-    for a in (mass, dt_minv):
+    for a in (mass, dt_minv, *(a for a in num if isinstance(a, np.ndarray))):
         a.setflags(write=False)
     return Model(V, K, mass, dt_minv, impact, interface, material, dt, dt_crit, comm, bulk, num, launch)
 

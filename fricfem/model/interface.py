@@ -231,14 +231,12 @@ class Points(NamedTuple):
 
     def frozen(self) -> "Points":
         """These points as a model keeps them: every array read-only (the constants,
-        and the evolving arrays' initial values, which each run copies: :meth:`fresh`),
-        but ``param_rows``: the law's ``p``, which a law must not write (its contract)
-        and a user's law that does is stopped for with one message
-        (:class:`fricfem.observe.LawWatch`); numba would refuse a read-only ``p``
-        while compiling such a law, with a traceback of its own."""
-        for name, a in zip(self._fields, self):
-            if name != "param_rows":
-                a.setflags(write=False)
+        ``param_rows`` (the law's ``p``) among them, and the evolving arrays'
+        initial values, which each run copies: :meth:`fresh`).  A law that writes
+        ``p`` is refused when it is registered (numba will not compile the write
+        for a read-only array: ``fricfem.friction.register_law``)."""
+        for a in self:
+            a.setflags(write=False)
         return self
 
     def fresh(self) -> "Points":

@@ -229,6 +229,8 @@ class FusedBulk:
             k = np.flatnonzero(self.special.preloaded)
             self.ku_dofs = (2 * self.special.node[k][:, None] + np.arange(2)[None, :]).ravel()
             self.ku_from = (2 * k[:, None] + np.arange(2)[None, :]).ravel()
+            self.ku_dofs.setflags(write=False)
+            self.ku_from.setflags(write=False)
         self.no_force = np.zeros(2 * self.n_nodes)  # the left / right forces without an interface
         for a in (*self.rows, *self.special, *self.edge, self.dt_minv, self.damping, self.damped_nodes,
                   self.impact_dofs, self.no_force):
