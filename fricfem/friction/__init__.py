@@ -77,6 +77,20 @@ def initial_state(law: Law, p, Tn0: float, Ts0: float, where: str = "") -> np.nd
     return state
 
 
+def initial_storage(law: Law, params, Tn0, Ts0) -> np.ndarray:
+    """Every point's initial state and memo, float64[n, n_state + memo] (set-up, once):
+    ``params`` float64[n, n_params], ``Tn0`` and ``Ts0`` float64[n] [Pa].  A user's law
+    has each call checked (:func:`initial_state`: finite, its size, a failure named
+    with the law and the point's tractions); a shipped law is trusted."""
+    n = len(Tn0)
+    out = np.zeros((n, len(law.state) + law.memo))
+    check = law.name not in BUILT_IN
+    for q in range(n):
+        state = initial_state(law, params[q], Tn0[q], Ts0[q]) if check else law.initial_state(params[q], Tn0[q], Ts0[q])
+        out[q] = storage(law, state)
+    return out
+
+
 def _smoke_rigid(law: Law, p, state, where: str) -> None:
     """The optional ``rigid`` verb, called as the split-node kernel will: a stuck
     and a strongly loaded pair (Z = 1e7 Pa s/m, T_n = 1 MPa, dt = 10 ns)."""

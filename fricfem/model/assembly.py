@@ -309,11 +309,3 @@ def round_down(x: float, digits: int = 3) -> float:
     """Round down to ``digits`` significant digits (makes dt reproducible across rank counts)."""
     e = math.floor(math.log10(x)) - digits + 1
     return math.floor(x / 10.0**e + 1e-9) * 10.0**e
-
-
-def _per_point(value, x1, width=None):
-    """A per-point array from a scalar/array or a callable of x1."""
-    v = value(x1) if callable(value) else value
-    v = np.asarray(v, dtype=np.float64)
-    shape = (len(x1),) if width is None else (len(x1), width)
-    return np.array(np.broadcast_to(v, shape), dtype=np.float64, order="C")  # a writable copy

@@ -28,7 +28,7 @@ from . import diskcache
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
-from .assembly import (_per_point, canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
+from .assembly import (canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
                        impact_dofs, max_eigenvalue, round_down, Stiffness)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
@@ -128,11 +128,11 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     def traction(f):  # a rigid pair carries the mean of a traction field over its share (iface_mod.pair_mean)
         if interface_kind == "rigid" and callable(f):
             return iface_mod.pair_mean(f, geom.x1_nodes, geom.pairs)
-        return _per_point(f, x1)
+        return iface_mod.per_point(f, x1)
 
     points = iface_mod.make_points(
-        law, _per_point(params, x1, len(law.params)), len(x1), sigma0,
-        traction(tau0), _per_point(Cn, x1), _per_point(Cs, x1),
+        law, iface_mod.per_point(params, x1, len(law.params)), len(x1), sigma0,
+        traction(tau0), iface_mod.per_point(Cn, x1), iface_mod.per_point(Cs, x1),
         state_Ts0=None if state_tau0 is None else traction(state_tau0),
     )
     interface = (RigidInterface if interface_kind == "rigid" else Interface)(geom, points, law)
@@ -179,31 +179,22 @@ def impact_tags(scene) -> tuple:
     return ("impact_lower", "impact_upper") if scene.symmetric else ("impact_lower",)
 
 
-def point_params(scene, x1) -> np.ndarray:
-    """Packed friction parameters per interface point, float64[n, n_params]:
-    the scene's, with each ``friction.regions`` entry applied where
-    x1_min <= x1 <= x1_max (regions may not overlap: scene validation), then each
-    ``friction.profiles`` parameter interpolated linearly between its knots
-    (constant beyond the ends; a profiled parameter is in no region)."""
-    law = friction.get_law(scene.law)
-    out = np.tile(friction.pack(law, scene.params), (len(x1), 1))
-    for reg in scene.regions:
-        sel = (x1 >= reg["x1_min"]) & (x1 <= reg["x1_max"])
-        out[sel] = friction.pack(law, {**scene.params, **reg.get("params", {})})
+def param_field(scene, law) -> iface_mod.ParamField:
+    """The scene's friction parameters along x1 (``law`` the scene's law): its
+    ``friction.params``, each ``friction.regions`` entry where x1_min <= x1 <=
+    x1_max, then each ``friction.profiles`` parameter between its knots."""
     names = friction.param_names(law)
-    for name, knots in scene.profiles:
-        kx, kv = np.array(knots, dtype=np.float64).T
-        out[:, names.index(name)] = np.interp(x1, kx, kv)
-    return out
+    regions = tuple((reg["x1_min"], reg["x1_max"], friction.pack(law, {**scene.params, **reg.get("params", {})}))
+                    for reg in scene.regions)
+    profiles = tuple((names.index(name), *np.array(knots, dtype=np.float64).T) for name, knots in scene.profiles)
+    return iface_mod.ParamField(friction.pack(law, scene.params), regions, profiles)
 
 
-def point_tau0(scene, x1) -> np.ndarray:
-    """Initial shear traction per interface point [Pa]: uniform ``interface.tau0``,
-    then each ``interface.patches`` entry where x1_min <= x1 <= x1_max."""
-    out = np.full(len(x1), scene.tau0)
-    for p in scene.tau0_patches:
-        out[(x1 >= p["x1_min"]) & (x1 <= p["x1_max"])] = p.get("tau0", scene.tau0)
-    return out
+def traction_field(scene) -> iface_mod.TractionField:
+    """The initial shear traction along x1 [Pa]: uniform ``interface.tau0``, then each
+    ``interface.patches`` entry where x1_min <= x1 <= x1_max."""
+    return iface_mod.TractionField(scene.tau0, tuple((p["x1_min"], p["x1_max"], p.get("tau0", scene.tau0))
+                                                     for p in scene.tau0_patches))
 
 
 def build_model(scene, comm, like=None):
@@ -213,16 +204,18 @@ def build_model(scene, comm, like=None):
     parts are reused (``build(like=...)``; the result is the same, bit for bit).
     A scene with the experiment's bodies is always built in full (``like`` is
     ignored: its contact and projectile are not part of what a model shares)."""
+    # the scene resolved into plain data first; from here on it flows down
     experiment = getattr(scene, "experiment", None)
     if experiment is not None:
         like = None
+    law = friction.get_law(scene.law)
+    params, tau0, tags = param_field(scene, law), traction_field(scene), impact_tags(scene)
+    state_tau0 = scene.tau0 if scene.initial_state == "background" else None
     pm = mesh_mod.build(scene.mesh, comm) if like is None else like[0]
     model = build(
-        pm, scene.material, scene.pulse, friction.get_law(scene.law), lambda x1: point_params(scene, x1),
-        scene.sigma0, scene.Cn, scene.Cs, tau0=lambda x1: point_tau0(scene, x1), impact_tags=impact_tags(scene),
-        dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=scene.interface_kind,
-        absorbing=scene.absorbing,
-        state_tau0=scene.tau0 if scene.initial_state == "background" else None,
-        like=None if like is None else like[1], experiment=experiment,
+        pm, scene.material, scene.pulse, law, params, scene.sigma0, scene.Cn, scene.Cs, tau0=tau0,
+        impact_tags=tags, dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=scene.interface_kind,
+        absorbing=scene.absorbing, state_tau0=state_tau0, like=None if like is None else like[1],
+        experiment=experiment,
     )
     return pm, model

@@ -37,8 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from petsc4py import PETSc
 
-from ..friction import BUILT_IN, initial_state
-from ..friction.base import storage
+from ..friction import initial_storage
 from .grid import TAGS
 
 #: Segments are dealt to ranks in blocks of this many, round-robin along x1.
@@ -261,19 +260,60 @@ def make_points(law, params, n, Tn0, Ts0, Cn, Cs, state_Ts0=None) -> Points:
     Tss = Ts0 if state_Ts0 is None else full(state_Ts0)
     params = np.array(np.broadcast_to(params, (n, len(law.params))), dtype=np.float64, order="C")
     rows, index = np.unique(params, axis=0, return_inverse=True)
-    state = np.zeros((n, len(law.state) + law.memo))  # the law's state, then its memo
-    if law.name in BUILT_IN:
-        for q in range(n):  # once, at set-up
-            state[q] = storage(law, law.initial_state(params[q], Tn0[q], Tss[q]))
-    else:  # a user's law: each call checked (finite, its size), a failure named with the law and the point
-        for q in range(n):
-            state[q] = storage(law, initial_state(law, params[q], Tn0[q], Tss[q]))
+    state = initial_storage(law, params, Tn0, Tss)  # the law's state, then its memo
     z = lambda: np.zeros(n)  # noqa: E731
     return Points(
         Tn0, Ts0, Cn, Cs, np.ascontiguousarray(rows), index.reshape(-1).astype(np.int32), state,
         Tn0.copy(), Ts0.copy(), z(), z(), z(), z(), z(), z(), z(), z(), z(),
         np.zeros(n, dtype=np.int8), np.ones(n, dtype=np.int32),
     )
+
+
+class ParamField(NamedTuple):
+    """A law's parameters along x1, resolved from a scene once (plain data; the
+    model evaluates it at its points): ``base`` the packed parameters
+    float64[n_params]; ``regions`` ((x1_min, x1_max, packed), ...) applied in
+    order where x1_min <= x1 <= x1_max (regions do not overlap: scene
+    validation); ``profiles`` ((index, knots x1, knot values), ...) interpolated
+    linearly after them (constant beyond the ends)."""
+
+    base: np.ndarray
+    regions: tuple = ()
+    profiles: tuple = ()
+
+    def __call__(self, x1) -> np.ndarray:
+        """float64[n, n_params] at the points ``x1`` [m]."""
+        x1 = np.asarray(x1, dtype=np.float64)
+        out = np.tile(self.base, (len(x1), 1))
+        for lo, hi, packed in self.regions:
+            out[(x1 >= lo) & (x1 <= hi)] = packed
+        for index, kx, kv in self.profiles:
+            out[:, index] = np.interp(x1, kx, kv)
+        return out
+
+
+class TractionField(NamedTuple):
+    """An initial shear traction along x1 [Pa], resolved from a scene once:
+    ``base`` everywhere, then ``patches`` ((x1_min, x1_max, value), ...) in order."""
+
+    base: float
+    patches: tuple = ()
+
+    def __call__(self, x1) -> np.ndarray:
+        """float64[n] at ``x1`` [m]."""
+        x1 = np.asarray(x1, dtype=np.float64)
+        out = np.full(len(x1), self.base)
+        for lo, hi, value in self.patches:
+            out[(x1 >= lo) & (x1 <= hi)] = value
+        return out
+
+
+def per_point(value, x1, width=None) -> np.ndarray:
+    """A per-point array (a writeable copy) from a scalar/array or a callable of x1."""
+    v = value(x1) if callable(value) else value
+    v = np.asarray(v, dtype=np.float64)
+    shape = (len(x1),) if width is None else (len(x1), width)
+    return np.array(np.broadcast_to(v, shape), dtype=np.float64, order="C")
 
 
 def pair_mean(f, x1_nodes: np.ndarray, pairs: np.ndarray) -> np.ndarray:

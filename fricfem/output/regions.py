@@ -3,7 +3,7 @@ interface point, and the entries themselves.
 
 ``regions/index`` int16[n_point] — the index k of the ``friction.regions[k]``
 entry whose [x1_min, x1_max] holds the point (the rule the model applies:
-:func:`fricfem.model.build.point_params`), −1 for a point in none (the scene's
+:func:`fricfem.model.build.param_field`), −1 for a point in none (the scene's
 ``friction.params``); the points are those of ``x1``, in its order.  Its
 attributes: ``x1_min``, ``x1_max`` [m] float64[n_regions] and ``params``, each
 entry's parameter overrides as JSON.  (A group of its own: the file's root
