@@ -111,8 +111,9 @@ def test_stepping_leaves_the_model_unchanged_and_two_states_agree(comm, kind):
     arrays = model_arrays(model)
     assert before and any(p.endswith(".initial.param_rows") for p in arrays)
     # every array is read-only but the step's scratch, written before it is read in every step: K u at the
-    # interface rows, the gathered off-rank displacements, the rigid pairs' slot for the step's edge velocity
-    scratch = (".bulk.sp_ku", ".bulk.ug", ".geometry.edge")
+    # interface rows, the gathered off-rank displacements, the rigid pairs' slot for the step's edge velocity,
+    # a Kelvin–Voigt layer's force (empty without one)
+    scratch = (".bulk.sp_ku", ".bulk.ug", ".geometry.edge", ".bulk.fd")
     assert [p for p, a in arrays.items() if a.flags.writeable and not p.endswith(scratch)] == []
     a = _state(scene, model)
     _step(model, a, 60)

@@ -231,7 +231,7 @@ def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
 
 
 @numba.njit(cache=True, _nrt=False)
-def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act):
+def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act, fd):
     """One pass over the owned block rows, the deferred special rows excepted.
 
     u         float64[2 n]    u^n (read)                        [m]
@@ -243,6 +243,9 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
     imp_prev  float64[n_imp]  u^{n−1} of the struck dofs, set to u^n = U(t^n) [m]
     imp_react float64[n_imp]  their load (reaction) at t^{n−1}, set to the one at t^n [N/m]
     act       int8[n]         activity of each row (QUIET rows are skipped), updated
+    fd        float64[2 n]    the Kelvin–Voigt layer's viscous force η K_L v^{n−½}, added
+                              here to the special rows' K u (the plain rows: :func:`viscous_plain`);
+                              empty without damping [N/m]
 
     Returns (u^n · K u^n over the swept rows [J/m, twice the strain energy],
     the load's work and the energy the dashpots absorbed over the step that
@@ -266,6 +269,9 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
         i = 2 * I
         s0, s1 = _row(ptr, col, val, u, I)
         uku += u[i] * s0 + u[i + 1] * s1
+        if fd.size:  # Kelvin–Voigt: the layer's viscous force joins K u (not the strain energy)
+            s0 += fd[i]
+            s1 += fd[i + 1]
         w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
                                 imp_react, absorb)
         work += w
@@ -277,7 +283,7 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
 
 @numba.njit(cache=True, _nrt=False)
 def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
-                   sp_ku):
+                   sp_ku, fd):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
     ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
@@ -298,6 +304,9 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, i
         else:
             s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
+        if fd.size:  # Kelvin–Voigt, as in sweep
+            s0 += fd[i]
+            s1 += fd[i + 1]
         w, ab = _special_update(I, kk, s0, s1, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev,
                                 imp_react, absorb)
         work += w
@@ -305,3 +314,43 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, i
         if act[I] != SPREAD and (unew[i] != 0.0 or unew[i + 1] != 0.0):
             _wake_neighbours(ptr, col, act, n, I)
     return uku, work, absorbed
+
+
+@numba.njit(cache=True, _nrt=False)
+def viscous_forces(lrows, layer, v, vg, eta, fd, v_old):
+    """The Kelvin–Voigt layer's force ``fd = η K_L v^{n−½}`` at its rows
+    (``layer`` int64[m], owned nodes), K_L the stiffness of the layer's cells
+    only (block rows as ``rows``; ``vg`` the gathered off-rank velocities), and
+    each layer row's v^{n−½} kept in ``v_old`` float64[2 m] for the dissipation."""
+    ptr, col, val = lrows
+    n = ptr.size - 1
+    for m in range(layer.size):
+        I = layer[m]
+        s0, s1 = _row_mixed(ptr, col, val, v, vg, n, I)
+        fd[2 * I] = eta * s0
+        fd[2 * I + 1] = eta * s1
+        v_old[2 * m] = v[2 * I]
+        v_old[2 * m + 1] = v[2 * I + 1]
+
+
+@numba.njit(cache=True, _nrt=False)
+def viscous_plain(layer, plain, fd, u, unew, v, dt_minv, dt, v_old):
+    """After the sweeps: the viscous force of the layer's plain rows (``plain``
+    int8[m]: 1 where the sweep did not add it), v^{n+½} −= dt M⁻¹ fd and u^{n+1}
+    from it.  Returns (fd · (u^{n+1} − u^{n−1})/2, fd · (u^{n+1} − u^n)/2) [J/m]
+    over this rank's layer rows: the first summed over the steps is the
+    dissipation ½ Σ (fd^k + fd^{k+1}) · (u^{k+1} − u^k) up to t^n (the energy
+    identity of central differences) plus the second, the half of step n's
+    term that lies ahead of t^n."""
+    dissipated = 0.0
+    ahead = 0.0
+    for m in range(layer.size):
+        I = layer[m]
+        for c in range(2):
+            i = 2 * I + c
+            if plain[m]:
+                v[i] -= dt_minv[I] * fd[i]
+                unew[i] = u[i] + dt * v[i]
+            dissipated += fd[i] * 0.5 * (v_old[2 * m + c] + v[i]) * dt
+            ahead += fd[i] * 0.5 * v[i] * dt
+    return dissipated, ahead

@@ -101,6 +101,14 @@ def canonical_rows(num, material: Material) -> tuple:
     return ptr, cols, vals
 
 
+def layer_rows(num, material: Material, width: float) -> tuple:
+    """The rows of K_L, the stiffness of the cells whose centroid has |x2| < ``width``
+    [m] only (a Kelvin–Voigt layer about the interface), as :func:`canonical_rows`
+    (the same order and sums; rows outside the layer empty).  One material."""
+    centroid_x2 = num.x[num.cells][:, :, 1].mean(axis=1)
+    return canonical_rows(num._replace(cells=num.cells[np.abs(centroid_x2) < width]), material)
+
+
 def canonical_mass(num, rho) -> np.ndarray:
     """Row-sum lumped mass of the owned dofs, ∫ ρ N_i dx = Σ_cells ρ A/3 over
     each node's cells in grid-cell order (both components) [kg/m]; ``rho`` a

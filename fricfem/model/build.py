@@ -28,7 +28,7 @@ from . import diskcache
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
-from .assembly import (canonical_mass, canonical_rows, dashpots, edge_weights, function_space,
+from .assembly import (canonical_mass, layer_rows, canonical_rows, dashpots, edge_weights, function_space,
                        impact_dofs, max_eigenvalue, round_down, Stiffness)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
@@ -76,7 +76,8 @@ class Model(NamedTuple):
 def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float,
           Cn: float, Cs: float, tau0=0.0, impact_tags=("impact_lower",),
           dt_safety: float = 0.9, dt: float | None = None, interface_kind: str = "elastic",
-          absorbing=(), state_tau0=None, like: Model | None = None, experiment=None) -> Model:
+          absorbing=(), state_tau0=None, like: Model | None = None, experiment=None,
+          damping=(0.0, 0.0)) -> Model:
     """Assemble everything for a run on the mesh ``pm`` (:class:`fricfem.model.mesh.PlateMesh`).
     Collective.
 
@@ -93,6 +94,9 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     absorbing outer edges with dashpots (of :data:`fricfem.model.grid.OUTER`)
     state_tau0  the shear traction the law's initial state is set from (scalar or
               callable of x1; default ``tau0``, each point's own)
+    damping   (ξ, w): a Kelvin–Voigt layer, the cells whose centroid has |x2| < w [m],
+              with the stress C:ε(u + η v), η = ξ dt (SEM2DPACK's ETA); the stable
+              step is 2/√λmax/√(1 + 2ξ) (:func:`fricfem.model.assembly.layer_rows`)
     like      a model built on ``pm`` with the same material, interface kind and
               stiffnesses, struck edges, load kind, step and absorbing edges
               (:func:`fricfem.model.reuse.model_key`): its K, lumped mass,
@@ -153,11 +157,16 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
                                    lambda: max_eigenvalue(K, mass, interface, num))
     else:
         lam = max_eigenvalue(K, mass, interface, num)
-    dt_crit = 2.0 / math.sqrt(lam)
+    xi, width = float(damping[0]), float(damping[1])
+    # central differences with the layer's force at v^{n−½}: stable for (ω dt)² (1 + 2ξ) <= 4
+    dt_crit = 2.0 / math.sqrt(lam) / math.sqrt(1.0 + 2.0 * xi)
     if dt is None:
         dt = round_down(dt_safety * dt_crit)
+    viscous = None
+    if xi > 0:
+        viscous = (block_rows(num, layer_rows(num, material, width)), xi * dt)
     bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
-                     dashpots(num, tuple(absorbing), material))
+                     dashpots(num, tuple(absorbing), material), viscous=viscous)
     dt_minv = dt / mass
     for a in (mass, dt_minv, *(a for a in num if isinstance(a, np.ndarray))):
         a.setflags(write=False)
@@ -216,6 +225,6 @@ def build_model(scene, comm, like=None):
         pm, scene.material, scene.pulse, law, params, scene.sigma0, scene.Cn, scene.Cs, tau0=tau0,
         impact_tags=tags, dt_safety=scene.dt_safety, dt=scene.dt, interface_kind=scene.interface_kind,
         absorbing=scene.absorbing, state_tau0=state_tau0, like=None if like is None else like[1],
-        experiment=experiment,
+        experiment=experiment, damping=(scene.damping_eta, scene.damping_width),
     )
     return pm, model

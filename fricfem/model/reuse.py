@@ -73,10 +73,11 @@ def model_key(scene) -> tuple:
     (λmax includes the springs), the struck edges (none without an impact) and
     whether the load is a prescribed velocity (the special rows; the rigid
     interface's pairs), the step (fixed, or the safety factor on the stable
-    step) and the absorbing edges."""
+    step), the absorbing edges and a Kelvin–Voigt layer."""
     return (scene.mesh, scene.material, scene.interface_kind, float(scene.Cn), float(scene.Cs),
             scene.dt, scene.dt_safety if scene.dt is None else None, tuple(scene.absorbing),
-            impact_tags(scene), bool(scene.pulse.prescribed), _defining_tables(scene.raw))
+            impact_tags(scene), bool(scene.pulse.prescribed), float(scene.damping_eta), float(scene.damping_width),
+            _defining_tables(scene.raw))
 
 
 class ModelCache:

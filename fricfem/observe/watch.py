@@ -169,7 +169,7 @@ def energy_scale(energy: dict) -> float:
     absorbing edges took (a rupture from an overstressed patch has no external
     work, but its released interface work is of the order of the others)."""
     return max(abs(energy["external"]), abs(energy["kinetic"]) + abs(energy["strain"]),
-               abs(energy["interface_work"]), abs(energy["absorbed"]), _ENERGY_FLOOR)
+               abs(energy["interface_work"]), abs(energy["absorbed"]), abs(energy.get("viscous", 0.0)), _ENERGY_FLOOR)
 
 
 def closure_bound(limits: dict) -> float:

@@ -281,7 +281,7 @@ def _gather(comm, ids, values, n):
 _KINDS = {"u": "dof", "v": "dof", "u_imp_prev": "struck", "react_prev": "struck", "damp_prev": "damped",
           "act": "node", "points.": "point", "contact.": "contact"}
 #: a state's scalars: the same on every rank, and each rank's own share (an energy)
-_GLOBAL, _SHARES = ("t", "t_interface", "n"), ("work_ext", "absorbed")
+_GLOBAL, _SHARES = ("t", "t_interface", "n"), ("work_ext", "absorbed", "viscous")
 
 
 def _kind(name: str) -> str:

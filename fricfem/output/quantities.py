@@ -97,7 +97,7 @@ BY_NAME = {q.name: q for q in QUANTITIES}
 
 #: energy history (``energy/``) and summary energy keys -> unit.
 ENERGY = {"time": "s", "kinetic": "J/m", "strain": "J/m", "interface_work": "J/m", "interface_elastic": "J/m",
-          "dissipated": "J/m", "external": "J/m", "absorbed": "J/m", "balance_error": "J/m"}
+          "dissipated": "J/m", "external": "J/m", "absorbed": "J/m", "viscous": "J/m", "balance_error": "J/m"}
 
 #: field snapshot functions in ``fields.xdmf`` -> unit (the arrays the goldens fingerprint).
 FIELDS = {"displacement": "m", "velocity": "m/s", "stress_difference": "Pa"}

@@ -77,6 +77,13 @@ SCHEMA = {
         "tau0": Key(NUM, 0.0, "Pa", -1e9, 1e9, "initial shear traction"),
         "patches": Key(list, [], doc="[{x1_min, x1_max, tau0}] initial shear traction patches; they may not "
                                      "overlap and each holds an interface point"),
+        "damping_eta": Key(NUM, 0.0, "dt", 0.0, 1.0, "Kelvin-Voigt damping of the bulk in a layer about the "
+                                                     "interface (SEM2DPACK's ETA): the stress there is "
+                                                     "C:eps(u + eta v), eta this fraction of the time step; 0: "
+                                                     "none (docs/interface_kinds.md; the stable step shrinks "
+                                                     "by 1/sqrt(1 + 2 damping_eta))"),
+        "damping_width": Key(NUM, 0.0, "m", 0.0, 1.0, "half-height of the damped layer: the cells whose centroid "
+                                                      "has |x2| < damping_width (set with damping_eta)"),
     },
     "friction": {
         "law": Key(str, "povirk_needleman", doc="friction law name"),

@@ -98,6 +98,8 @@ class Scene(NamedTuple):
     absorbing: tuple = ()  # outer edges with dashpots (model.grid.OUTER)
     profiles: tuple = ()  # ((parameter name, ((x1, value), ...)), ...): piecewise-linear along x1
     initial_state: str = "local"  # the traction the initial friction state comes from: 'local' or 'background'
+    damping_eta: float = 0.0  # Kelvin–Voigt layer: η as a fraction of dt (0: none)
+    damping_width: float = 0.0  # its half-height about x2 = 0 [m]
     experiment: object = None  # the experiment's steel bodies (fricfem.model.bodies.Experiment), or None
 
 

@@ -420,10 +420,28 @@ def validate(raw: dict) -> Scene:
         raw=raw,
         interface_kind=itf["kind"], absorbing=absorbing, profiles=profiles,
         initial_state=sec["friction"]["initial_state"], experiment=experiment,
+        damping_eta=float(itf["damping_eta"]), damping_width=float(itf["damping_width"]),
     )
+    _damping_rules(scene, spec)
     _time_rules(scene)
     return scene._replace(warnings=tuple(_band_warnings(sec) + _scale_warnings(law, params, spec, mat,
                                                                                 scene.sigma0)))
+
+
+def _damping_rules(scene, spec) -> None:
+    """A Kelvin–Voigt layer needs both its keys, at least one cell, and a bulk of one material."""
+    eta, width = scene.damping_eta, scene.damping_width
+    if (eta > 0) != (width > 0):
+        given, missing = (("interface.damping_eta", "interface.damping_width") if eta > 0 else
+                          ("interface.damping_width", "interface.damping_eta"))
+        raise SceneError(f"{given} = {eta if eta > 0 else width!r} without {missing}: a Kelvin-Voigt layer needs "
+                         f"both (damping_eta > 0, a fraction of dt; damping_width > 0 m), or neither")
+    if eta > 0 and width < spec.dy:
+        raise SceneError(f"interface.damping_width = {width!r} m: thinner than one row of cells at the interface "
+                         f"(mesh.dy = {spec.dy!r} m); allowed: >= mesh.dy")
+    if eta > 0 and getattr(scene, "experiment", None) is not None:
+        raise SceneError("interface.damping_eta: a Kelvin-Voigt layer is not available with the experiment's "
+                         "steel buffer and projectile (several materials); allowed: 0")
 
 
 def _band_warnings(sec: dict) -> list:

@@ -177,6 +177,30 @@ def _edge(impact) -> tuple:
             np.ascontiguousarray(impact.damp if traction else np.zeros(0), dtype=np.float64))
 
 
+class _Viscous(NamedTuple):
+    """A Kelvin–Voigt layer's data for the kernels (:class:`FusedBulk`)."""
+
+    rows: tuple  # (ptr, col, val) of K_L
+    eta: float  # [s]
+    layer: np.ndarray  # int64: owned nodes with a row in K_L
+    plain: np.ndarray  # int8: 1 where the node is not a special row
+    scatter: object  # the off-rank velocities K_L's rows need, or None
+    vec: object
+    vg: np.ndarray
+    v_old: np.ndarray  # float64[2 len(layer)]: v^{n−½} at the layer rows
+
+
+def _ghost_gather(ghost, template, comm):
+    """(scatter, vector) gathering the off-rank nodes ``ghost`` (global blocks) of
+    a vector laid out as ``template``; (None, None) when no rank needs any.  Collective."""
+    if not comm.allreduce(len(ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
+        return None, None
+    gdofs = (2 * np.asarray(ghost)[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+    vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
+    is_from = PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF)
+    return PETSc.Scatter().create(template, is_from, vec, None), vec
+
+
 class FusedBulk:
     """The fused step of one model: built once, one verb (:meth:`advance`).
 
@@ -198,14 +222,17 @@ class FusedBulk:
     """
 
     def __init__(self, rows: BlockRows, dt_minv, dt: float, interface, impact, template: PETSc.Vec, comm,
-                 dashpots=(np.zeros(0, dtype=np.int64), np.zeros((0, 2)))):
+                 dashpots=(np.zeros(0, dtype=np.int64), np.zeros((0, 2))), viscous=None):
         """``rows`` this rank's block rows of K (:func:`block_rows`); ``interface``
         the model's :class:`fricfem.step.interface.Interface` or None (bulk
         alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
         masses, pulse, traction coefficients); ``template`` a vector with the
         displacement's layout; ``dashpots`` (owned nodes, coefficients
         float64[m, 2]) of the absorbing edges
-        (:func:`fricfem.model.assembly.dashpots`).  Collective."""
+        (:func:`fricfem.model.assembly.dashpots`); ``viscous``: None, or (the block
+        rows of the Kelvin–Voigt layer's stiffness K_L (:func:`block_rows`; empty rows
+        outside the layer), η [s]): the force η K_L v^{n−½} joins K u^n in the layer
+        (:meth:`advance`).  Collective."""
         ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.dt = float(dt)
         dt_minv = np.asarray(dt_minv, dtype=np.float64)
@@ -237,14 +264,21 @@ class FusedBulk:
             a.setflags(write=False)  # the model's: a step only reads them
         self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
         self._special = tuple(self.special)
-        self.ghost_scatter = None
-        self.ug = np.zeros(0)
-        if comm.allreduce(len(self.rows.ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
-            gdofs = (2 * self.rows.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
-            self.ghost_vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
-            is_from = PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF)
-            self.ghost_scatter = PETSc.Scatter().create(template, is_from, self.ghost_vec, None)
-            self.ug = self.ghost_vec.array
+        self.ghost_scatter, self.ghost_vec = _ghost_gather(self.rows.ghost, template, comm)
+        self.ug = np.zeros(0) if self.ghost_vec is None else self.ghost_vec.array
+        self.fd = np.zeros(0)  # no Kelvin–Voigt layer: the kernels add nothing
+        self.viscous = None
+        if viscous is not None:
+            lrows, eta = viscous
+            layer = np.flatnonzero(np.diff(lrows.ptr.astype(np.int64)) > 0)
+            plain = ~np.isin(layer, self.special.node[:-1])
+            scatter, vec = _ghost_gather(lrows.ghost, template, comm)
+            self.viscous = _Viscous(tuple(lrows[:3]), float(eta), layer.astype(np.int64), plain.astype(np.int8),
+                                    scatter, vec, np.zeros(0) if vec is None else vec.array,
+                                    np.zeros(2 * len(layer)))
+            self.fd = np.zeros(2 * self.n_nodes)
+            for a in (*lrows, layer, plain):
+                a.setflags(write=False)
 
     def rebind(self, interface, impact) -> "FusedBulk":
         """The same step for another scene on the same mesh, interface geometry and
@@ -269,7 +303,7 @@ class FusedBulk:
         """A fresh activity array (int8[n_nodes]) for a state: at rest, only the
         special rows are awake; otherwise every row is (``kernels.bulk.SPREAD``)."""
         act = np.full(self.n_nodes, bulk.SPREAD, dtype=np.int8)
-        if at_rest:
+        if at_rest and self.viscous is None:  # (a Kelvin–Voigt layer: every row, its force is added after the sweep)
             act[:] = bulk.QUIET
             act[self.special.node[:-1]] = bulk.ACTIVE
         return act
@@ -298,13 +332,19 @@ class FusedBulk:
         gl = gr = self.no_force
         insert, forward = PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD
         t0 = time.perf_counter()
+        vis, fd = self.viscous, self.fd
+        if vis is not None:  # η K_L v^{n−½}, before the sweep changes v
+            if vis.scatter is not None:
+                vis.scatter.begin(v, vis.vec, insert, forward)
+                vis.scatter.end(v, vis.vec, insert, forward)
+            bulk.viscous_forces(vis.rows, vis.layer, va, vis.vg, vis.eta, fd, vis.v_old)
         if self.ghost_scatter is not None:
             self.ghost_scatter.begin(u, self.ghost_vec, insert, forward)
         if self.interface is not None:
             self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
         uku, work, absorbed = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev,
-                                         imp_react, absorb, act)
+                                         imp_react, absorb, act, fd)
         t2 = time.perf_counter()
         if self.ghost_scatter is not None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
@@ -313,12 +353,18 @@ class FusedBulk:
             bulk.preload(rows, special, ua, self.ug, self.sp_ku)
             if self.ku is not None:
                 self.ku.array[self.ku_dofs] = self.sp_ku[self.ku_from]
+                if vis is not None:  # the trial velocities see the layer's viscous force too
+                    self.ku.array[self.ku_dofs] += fd[self.ku_dofs]
             # −F_int(u^n), left and right parts
             gl, gr = self.interface.advance(state, u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
         t4 = time.perf_counter()
         uku_d, work_d, absorbed_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va,
                                                         self.dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
-                                                        self.sp_ku)
+                                                        self.sp_ku, fd)
+        if vis is not None:
+            inc, state.viscous_ahead = bulk.viscous_plain(vis.layer, vis.plain, fd, ua, una, va, self.dt_minv, dt,
+                                                          vis.v_old)
+            state.viscous += inc
         t5 = time.perf_counter()
         sec = state.seconds
         sec["interface"] += (t1 - t0) + (t4 - t3)

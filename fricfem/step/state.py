@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 #: the scalars of a state (:meth:`State.snapshot`)
-_SCALARS = ("t", "t_interface", "n", "work_ext", "absorbed")
+_SCALARS = ("t", "t_interface", "n", "work_ext", "absorbed", "viscous")
 #: its arrays other than the vectors and the interface points
 _ARRAYS = ("u_imp_prev", "react_prev", "damp_prev", "act")
 #: the attributes that hold interface points (the frictional interface's, the contact's)
@@ -55,6 +55,8 @@ class State:
         self.react_prev = np.zeros(len(model.impact.dofs))  # their load at t^{n−1} [N/m]
         self.damp_prev = np.zeros((len(model.bulk.damping), 4))  # dashpots: u^{n−1} and force at t^{n−1}
         self.absorbed = 0.0  # energy the dashpots absorbed, this rank's share [J/m]
+        self.viscous = 0.0  # energy a Kelvin–Voigt layer dissipated, this rank's share, to t^{n+1} [J/m]
+        self.viscous_ahead = 0.0  # the part of it after t^n (the last step's; not state: made by every step)
         self.act = model.bulk.activity(at_rest=skip_quiet)  # rows awake (kernels.bulk QUIET/ACTIVE/SPREAD)
         self.points = None
         self.contact = None
@@ -120,6 +122,6 @@ class State:
                 raise ValueError(f"State.restore: {name!r} is missing")
         self.t, self.t_interface = float(d["t"]), float(d["t_interface"])
         self.n = int(d["n"])
-        self.work_ext, self.absorbed = float(d["work_ext"]), float(d["absorbed"])
+        self.work_ext, self.absorbed, self.viscous = float(d["work_ext"]), float(d["absorbed"]), float(d["viscous"])
         # the rows a step leaves quiet hold u = 0 in both buffers; every other row of u^{n+1} is written
         self.u_next.array[:] = self.u.array_r

@@ -35,14 +35,14 @@ def step(model, state, energy: dict | None = None) -> None:
     state.absorbed += absorbed
     if energy is not None:
         kinetic = 0.5 * dot3(model.mass, v_old, state.v.array_r)  # in a fixed order, not BLAS's (.kernels.reduce)
-        loc = np.array([kinetic, state.work_ext, 0.5 * uku, state.absorbed])
-        tot = np.zeros(4)
+        loc = np.array([kinetic, state.work_ext, 0.5 * uku, state.absorbed, state.viscous - state.viscous_ahead])
+        tot = np.zeros(5)
         model.comm.Allreduce(loc, tot, op=MPI.SUM)
         energy.update(model.interface.energy(state))
-        energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1], absorbed=tot[3])
+        energy.update(time=state.t, kinetic=tot[0], strain=tot[2], external=tot[1], absorbed=tot[3], viscous=tot[4])
         energy["balance_error"] = (
             energy["kinetic"] + energy["strain"] + energy["interface_work"] + energy["absorbed"]
-            - energy["external"]
+            + energy["viscous"] - energy["external"]
         )
     state.t_interface = state.t
     state.t += model.dt
