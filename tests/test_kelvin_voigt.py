@@ -14,6 +14,7 @@ from rankcheck import world_against_self
 from fricfem import load_scene
 from fricfem.model.build import build_model
 from fricfem.scene import SceneError
+from fricfem.scene.cost import estimate
 from fricfem.step import State, evolve
 
 # tpv205_2d (rigid, absorbing edges) on 0.4 mm cells to 5 µs: the rupture leaves the patch and rings
@@ -61,6 +62,9 @@ def test_the_layer_damps_the_ringing_and_its_dissipation_closes_the_budget(comm)
     # the stable step of central differences with the force at v^{n−½}: (ω dt)² (1 + 2 ETA) <= 4
     assert m1.dt_crit == pytest.approx(m0.dt_crit / math.sqrt(1.6), rel=1e-12)
     assert m1.dt <= 0.9 * m1.dt_crit < m0.dt
+    # the cost estimate, made before anything is built, brackets the layer's shorter step
+    est = estimate(load_scene("tpv205_2d", COARSE + LAYER))
+    assert est.dt_low <= m1.dt <= est.dt_high and est.steps >= round(5e-6 / m1.dt)
 
 
 def test_the_step_bound_is_where_the_layer_goes_unstable(comm):
