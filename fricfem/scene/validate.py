@@ -200,13 +200,43 @@ def _law_rules(where: str, p: dict, length: float) -> None:
                              f"benchmarks'); scale it to the specimen, e.g. 1e-6 to 1e-4 m")
 
 
+#: what a parameter of one law is called in another (a slip distance; how the state starts)
+_ALIASES = {"Dc": "the slip distance", "L": "the slip distance", "L0": "the slip distance",
+            "V_ini": "the initial slip rate the state is set from"}
+
+
+def _other_law_hint(fr: dict) -> str:
+    """For a parameter the scene's law does not have but another law does: whose it
+    is, and the scene's law's own name for the same thing, if it has one."""
+    try:
+        law = friction.get_law(fr["law"])
+    except ValueError:
+        return ""
+    mine = set(friction.param_names(law))
+    for key in fr.get("params", {}):
+        if key in mine:
+            continue
+        owners = sorted(n for n, lw in friction.LAWS.items() if key in friction.param_names(lw))
+        if not owners:
+            return ""
+        hint = f" ({key} is a parameter of {', '.join(owners)}"
+        same = [k for k in mine if _ALIASES.get(k) and _ALIASES.get(k) == _ALIASES.get(key)]
+        if same:
+            hint += f"; {_ALIASES[key]} of {law.name} is {', '.join(sorted(same))}"
+        if "V_ini" in mine:
+            hint += (f"; the state of {law.name} starts at steady sliding at V_ini, under each point's own "
+                     f"traction or the background's: friction.initial_state")
+        return hint + ")"
+    return ""
+
+
 def _friction(fr: dict, length: float, x1) -> tuple:
     """(law name, parameters, regions) of a checked ``[friction]`` section."""
     try:
         law = friction.get_law(fr["law"])
         params = friction.validate(law, fr["params"], where="friction.params")
     except ValueError as err:
-        raise SceneError(str(err)) from None
+        raise SceneError(str(err) + _other_law_hint(fr)) from None
     _law_rules("friction.params", params, length)
     regions = _x1_ranges("friction.regions", fr["regions"], length, ("x1_min", "x1_max", "params"), x1)
     for i, reg in enumerate(regions):
@@ -424,7 +454,7 @@ def validate(raw: dict) -> Scene:
     )
     _damping_rules(scene, spec)
     _time_rules(scene)
-    return scene._replace(warnings=tuple(_band_warnings(sec) + _scale_warnings(law, params, spec, mat,
+    return scene._replace(warnings=tuple(_band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat,
                                                                                 scene.sigma0)))
 
 
@@ -442,6 +472,21 @@ def _damping_rules(scene, spec) -> None:
     if eta > 0 and getattr(scene, "experiment", None) is not None:
         raise SceneError("interface.damping_eta: a Kelvin-Voigt layer is not available with the experiment's "
                          "steel buffer and projectile (several materials); allowed: 0")
+
+
+def _nucleation_warning(scene) -> list:
+    """A patch of raised shear traction under a law whose state is set from the
+    traction ('local', the default) starts in steady sliding at V_ini, like the
+    rest of the fault: it is not overstressed and nothing nucleates there."""
+    law = friction.get_law(scene.law)
+    if (scene.initial_state != "local" or "V_ini" not in friction.param_names(law)
+            or not any(p.get("tau0", scene.tau0) != scene.tau0 for p in scene.tau0_patches)):
+        return []
+    return [f"interface.patches set a shear traction other than interface.tau0 = {scene.tau0:g} Pa, but "
+            f"friction.initial_state = 'local' sets each point's state from its own traction, so a patch starts "
+            f"in steady sliding at V_ini like the rest of the fault and is not overstressed: nothing nucleates "
+            f"there. For nucleation by overstress (SCEC TPV101-102, SEM2DPACK) set friction.initial_state = "
+            f"'background'"]
 
 
 def _band_warnings(sec: dict) -> list:
