@@ -22,14 +22,6 @@ COARSE = ["mesh.dx=0.4e-3", "mesh.dy=0.4e-3", "time.end=5e-6"]
 LAYER = ["interface.damping_eta=0.3", "interface.damping_width=1.2e-3"]
 
 
-def _run(sets, comm, every=1):
-    scene = load_scene("tpv205_2d", COARSE + sets)
-    _, model = build_model(scene, comm)
-    state = State(model, skip_quiet=scene.skip_quiet)
-    energies = [e for _, e in evolve(model, state, scene.t_end, every) if e]
-    return model, state, energies
-
-
 def _ringing(model, state, comm, history):
     """The slip rate's step-to-step roughness (measured: 0.0058 without the layer, 0.0029 with
     ETA 0.3 over 3 cells; 1 rank): rms over the
