@@ -12,6 +12,8 @@ station's peak slip rate; the worst and the median over the stations that slip.
 
     .venv/bin/python benchmarks/kelvin_voigt.py                           # both problems, 0.2 mm, ETA 0 / 0.03 / 0.1 / 0.3
     .venv/bin/python benchmarks/kelvin_voigt.py --problems tpv205_2d --h 0.4e-3 --eta 0 0.3
+    .venv/bin/python benchmarks/kelvin_voigt.py --h 0.4e-3 0.2e-3 0.1e-3         # the committed table
+    .venv/bin/python benchmarks/kelvin_voigt.py --h 0.1e-3 --merge                # add rows, keep the others
 
 Results: benchmarks/results/kelvin_voigt.{json,md}.  Runs: runs/kelvin_voigt/.
 """
@@ -98,6 +100,7 @@ def main(argv=None) -> list:
     ap.add_argument("--eta", nargs="+", type=float, default=[0.0, 0.03, 0.1, 0.3])
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("--out", default="runs/kelvin_voigt")
+    ap.add_argument("--merge", action="store_true", help="keep the committed rows this run does not redo")
     args = ap.parse_args(argv)
     rows = []
     for problem in args.problems:
@@ -108,6 +111,13 @@ def main(argv=None) -> list:
                 print(f"{problem} h = {h * 1e3:g} mm ETA {eta:g}: dt {r['dt_s'] * 1e9:.1f} ns, t_r {r['t_r_us']:.3f} µs "
                       f"({r['t_r_pct']:.2f} %), slip {r['slip_pct']:.2f} %, ringing worst {r['ringing_worst']:.4f} "
                       f"median {r['ringing_median']:.4f}, CPU {r['cpu_s']:.1f} s", flush=True)
+    if args.merge and RESULTS.joinpath("kelvin_voigt.json").exists():
+        # the committed rows this invocation did not rerun are kept
+        done = {(r["problem"], r["h_m"], r["eta"]) for r in rows}
+        old = json.loads(RESULTS.joinpath("kelvin_voigt.json").read_text())["rows"]
+        rows += [r for r in old if (r["problem"], r["h_m"], r["eta"]) not in done]
+    order = {p: i for i, p in enumerate(score.PROBLEMS)}
+    rows.sort(key=lambda r: (order[r["problem"]], r["h_m"], r["eta"]))
     RESULTS.joinpath("kelvin_voigt.json").write_text(json.dumps(
         {"date": time.strftime("%Y-%m-%d %H:%M"), "rows": rows}, indent=1, default=float))
     RESULTS.joinpath("kelvin_voigt.md").write_text(table(rows))
