@@ -293,8 +293,9 @@ def from_run(rundir, threshold: float | None = None) -> dict:
             return {}
         speeds = {k: float(itf.attrs[k]) for k in ("c_R", "c_s", "sqrt2_c_s", "c_l")}
         struck = float(itf.attrs.get("v_imp", 0.0)) != 0.0
-        stations = {n: (s.x1, s.time, s.data["slip_rate"]) for n, s in itf.stations().items()
+        # each at the time its rows hold (the rigid kind's slip rate: t^{n+½}; InterfaceFile.time_of)
+        stations = {n: (s.x1, s.time_of("slip_rate"), s.data["slip_rate"]) for n, s in itf.stations().items()
                     if "slip_rate" in s.data}
-        block = diagnose(itf.time, itf.x1, itf.all("slip_rate"), speeds, threshold=threshold,
+        block = diagnose(itf.time_of("slip_rate"), itf.x1, itf.all("slip_rate"), speeds, threshold=threshold,
                          stations=stations, struck=struck, slip=itf.all("slip") if itf.has("slip") else None)
     return {} if block is None else {"rupture": block}

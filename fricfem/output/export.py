@@ -51,8 +51,14 @@ def station_series(rundir) -> dict:
         missing = [k for k in ("slip", "slip_rate", "shear_traction", "normal_traction") if k not in st.data]
         if missing:
             raise ValueError(f"{rundir}: station {name} has no {', '.join(missing)}")
-        out[name] = {"x1": st.x1, "t": np.asarray(st.time, dtype=float), "slip": st.data["slip"],
-                     "slip_rate": st.data["slip_rate"], "shear_stress": sign * st.data["shear_traction"] + 0.0,
+        t = np.asarray(st.time, dtype=float)
+        # every column at the row's time t^n: a quantity held at another time (the rigid kind's slip rate
+        # at t^{n+½}, slip at t^{n+1}) is interpolated linearly to it (the mean of two steps' rates; the
+        # previous row's slip)
+        at = {k: np.interp(t, st.time_of(k), st.data[k]) if st.shift.get(k) else st.data[k]
+              for k in ("slip", "slip_rate")}
+        out[name] = {"x1": st.x1, "t": t, "slip": at["slip"],
+                     "slip_rate": at["slip_rate"], "shear_stress": sign * st.data["shear_traction"] + 0.0,
                      "normal_stress": -st.data["normal_traction"] + 0.0}  # + 0.0: no −0
     return out
 

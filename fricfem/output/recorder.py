@@ -40,7 +40,7 @@ import numpy as np
 
 from ..kernels.watch import take_rows
 from .directory import RunDirError
-from .quantities import ENERGY, FORMAT, QUANTITIES, unit
+from .quantities import ENERGY, FORMAT, QUANTITIES, time_shift, unit
 from .quantities import BY_NAME
 from .regions import write_regions
 
@@ -55,6 +55,13 @@ def planned_rows(n_steps: int, every: int, energy_every: int) -> dict:
     snaps = (n_steps - 1) // every + 1 if n_steps > 0 else 0
     energy = (n_steps - 1) // energy_every + 1 if n_steps > 0 and energy_every > 0 else 0
     return {"snapshots": snaps, "stations": n_steps, "energy": energy}
+
+
+def _when_attrs(dataset, kind: str, name: str, dt: float) -> None:
+    """The time a quantity's rows hold, on its dataset (:func:`fricfem.output.quantities.time_shift`)."""
+    shift, where = time_shift(kind, name, dt)
+    dataset.attrs["time_shift_s"] = shift
+    dataset.attrs["defined_at"] = where
 
 
 def _dataset(group, name: str, shape, dtype, unit_: str):
@@ -94,6 +101,8 @@ class Recorder:
         self.x1 = x1_all[self.order]
         self.n_point = len(self.x1)
         self.rows = dict(rows)
+        self.kind = "rigid" if type(self.itf).__name__ == "RigidInterface" else "elastic"
+        self.dt = float(model.dt)
         # stations: nearest Gauss point; its owner records every step
         self.stations = {}
         for name, xs in scene.output.stations.items():
@@ -156,11 +165,14 @@ class Recorder:
             _dataset(f, "time", (n,), "f8", "s")
             for q in self.names:
                 _dataset(f, q, (n, self.n_point), "i1" if q == "open" else "f8", unit(q))
+                _when_attrs(f[q], self.kind, q, self.dt)
             for name, (xq, _) in self.stations.items():
                 g = f.create_group(f"stations/{name}")
                 g.attrs.update(x1=xq, x1_unit="m")
                 for col in ["time", *(q.name for q in QUANTITIES)]:
                     _dataset(g, col, (self.rows["stations"],), "f8", "s" if col == "time" else unit(col))
+                    if col != "time":
+                        _when_attrs(g[col], self.kind, col, self.dt)
             g = f.create_group("energy")
             g.attrs["unit"] = "J/m (per unit thickness); time in s"
             for k in ENERGY:

@@ -111,12 +111,20 @@ def valid_rows(time, n_attr=None) -> int:
 
 @dataclasses.dataclass
 class Station:
-    """Histories at one interface point: ``data[name]`` float64[n] against ``time`` [s]."""
+    """Histories at one interface point: ``data[name]`` float64[n] against ``time`` [s]
+    (the step's t^n); ``shift[name]`` [s]: a quantity that holds at another time
+    (:meth:`time_of`)."""
 
     name: str
     x1: float
     time: np.ndarray
     data: dict
+    shift: dict = dataclasses.field(default_factory=dict)
+
+    def time_of(self, name: str) -> np.ndarray:
+        """The times [s] at which ``data[name]`` holds (``time`` + its shift: the
+        rigid kind's slip rate at t^{n+½}, its slip at t^{n+1}; docs/outputs.md)."""
+        return self.time + self.shift.get(name, 0.0)
 
 
 class InterfaceFile:
@@ -135,6 +143,11 @@ class InterfaceFile:
 
     def has(self, name: str) -> bool:
         return name in self.file
+
+    def time_of(self, name: str) -> np.ndarray:
+        """The times [s] at which the rows of quantity ``name`` hold: ``time`` plus
+        the dataset's ``time_shift_s`` (0 in files written before it was)."""
+        return self.time + float(_attr(self.file[name].attrs, "time_shift_s", 0.0))
 
     def rows(self, name: str, idx) -> np.ndarray:
         """float64[len(idx), n_point] of quantity ``name`` at valid rows ``idx``."""
@@ -166,7 +179,9 @@ class InterfaceFile:
         for name, g in (self.file.get("stations") or {}).items():
             n = valid_rows(g["time"], _attr(g.attrs, "n"))
             data = {k: np.asarray(g[k][:n], dtype=np.float64) for k in g if k != "time" and g[k].ndim == 1}
-            out[name] = Station(name, float(_attr(g.attrs, "x1", np.nan)), g["time"][:n], data)
+            shift = {k: float(_attr(g[k].attrs, "time_shift_s", 0.0)) for k in data}
+            out[name] = Station(name, float(_attr(g.attrs, "x1", np.nan)), g["time"][:n], data,
+                                {k: v for k, v in shift.items() if v})
         return out
 
 
