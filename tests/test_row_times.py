@@ -34,6 +34,7 @@ def test_the_rigid_kinds_rates_and_slip_hold_where_the_file_says(rigid_run):
         assert itf.file["slip_rate"].attrs["time_shift_s"] == 0.5 * dt
         assert itf.file["slip"].attrs["time_shift_s"] == dt
         assert itf.file["shear_traction"].attrs["time_shift_s"] == 0.0
+        assert [itf.file[f"state/{k}"].attrs["time_shift_s"] for k in itf.file["state"]] == [dt] * len(itf.file["state"])
         assert np.array_equal(itf.time_of("slip"), itf.time + dt)
         s = max(itf.stations().values(), key=lambda s: s.data["slip"].max())
     assert s.data["slip"].max() > 1e-6  # it slid

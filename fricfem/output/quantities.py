@@ -97,18 +97,18 @@ BY_NAME = {q.name: q for q in QUANTITIES}
 
 #: when a quantity of an interface.h5 row holds, in steps after the row's ``time``
 #: (t^n, the time of the tractions), by interface kind; 0 when not named.  The
-#: rigid kind's slip rate and jump rate are the step's V^{n+½} and its slip
-#: δ^{n+1} (δ^n + V^{n+½} dt); the elastic kind's jump rate is that of the step
+#: rigid kind's slip rate and jump rate are the step's V^{n+½}, its slip
+#: δ^{n+1} (δ^n + V^{n+½} dt) and the law's state (``state/…``) Ψ^{n+1}; the elastic kind's jump rate is that of the step
 #: that ended at t^n, V^{n−½} (its slip rate and slip are the law's at t^n).
 #: Written on each dataset as ``time_shift_s`` (:func:`time_shift`); readers take
 #: ``InterfaceFile.time_of`` / ``Station.time_of``.
-TIME_SHIFT_STEPS = {"rigid": {"slip_rate": 0.5, "jump_rate_s": 0.5, "slip": 1.0},
+TIME_SHIFT_STEPS = {"rigid": {"slip_rate": 0.5, "jump_rate_s": 0.5, "slip": 1.0, "state/": 1.0},
                     "elastic": {"jump_rate_s": -0.5}}
 
 
 def time_shift(kind: str, name: str, dt: float) -> tuple:
     """(shift [s], what it means) of quantity ``name`` of an ``kind`` interface."""
-    k = TIME_SHIFT_STEPS.get(kind, {}).get(name, 0.0)
+    k = TIME_SHIFT_STEPS.get(kind, {}).get("state/" if name.startswith("state/") else name, 0.0)
     where = {0.0: "at time (t^n)", 0.5: "at time + dt/2 (t^{n+1/2}: the step's rate)",
              1.0: "at time + dt (t^{n+1}: after the step's slip)",
              -0.5: "at time - dt/2 (t^{n-1/2}: the rate of the step that ended at t^n)"}[k]
