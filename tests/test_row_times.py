@@ -34,7 +34,8 @@ def test_the_rigid_kinds_rates_and_slip_hold_where_the_file_says(rigid_run):
         assert itf.file["slip_rate"].attrs["time_shift_s"] == 0.5 * dt
         assert itf.file["slip"].attrs["time_shift_s"] == dt
         assert itf.file["shear_traction"].attrs["time_shift_s"] == 0.0
-        assert [itf.file[f"state/{k}"].attrs["time_shift_s"] for k in itf.file["state"]] == [dt] * len(itf.file["state"])
+        states = list(itf.file["state"])
+        assert states and [itf.file[f"state/{k}"].attrs["time_shift_s"] for k in states] == [dt] * len(states)
         assert np.array_equal(itf.time_of("slip"), itf.time + dt)
         s = max(itf.stations().values(), key=lambda s: s.data["slip"].max())
     assert s.data["slip"].max() > 1e-6  # it slid
@@ -70,3 +71,16 @@ def test_the_elastic_kinds_jump_rate_is_the_last_steps(comm, tmp_dir_shared):
     with open_interface(tmp_dir_shared / "elastic") as itf:
         assert itf.file["jump_rate_s"].attrs["time_shift_s"] == -0.5 * s["dt_s"]
         assert all(itf.file[q].attrs["time_shift_s"] == 0.0 for q in ("slip_rate", "slip", "shear_traction"))
+
+
+def test_the_experiments_rigid_interface_says_its_times_too(comm, tmp_dir_shared):
+    """With the experiment's bodies the model's interface is the frictional one and the
+    projectile's contact in one step; the file's times follow the scene's interface kind."""
+    sets = ["mesh.preset='coarse'", "interface.kind='rigid'", "friction.law='slip_weakening'",
+            "friction.params.Dc=2e-5", "time.end=2e-6", "output.fields=[]"]
+    s = runner.run_scene(load_scene("experiment_42", sets), tmp_dir_shared / "experiment", comm, quiet=True)
+    if RANK:
+        return
+    with open_interface(tmp_dir_shared / "experiment") as itf:
+        assert itf.file["slip_rate"].attrs["time_shift_s"] == 0.5 * s["dt_s"]
+        assert itf.file["slip"].attrs["time_shift_s"] == s["dt_s"]

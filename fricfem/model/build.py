@@ -28,8 +28,8 @@ from . import diskcache
 from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
-from .assembly import (canonical_mass, layer_rows, canonical_rows, dashpots, edge_weights, function_space,
-                       impact_dofs, max_eigenvalue, round_down, Stiffness)
+from .assembly import (canonical_mass, canonical_rows, dashpots, edge_weights, function_space, impact_dofs,
+                       layer_rows, max_eigenvalue, round_down, Stiffness)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
 from .material import Material

@@ -98,8 +98,9 @@ BY_NAME = {q.name: q for q in QUANTITIES}
 #: when a quantity of an interface.h5 row holds, in steps after the row's ``time``
 #: (t^n, the time of the tractions), by interface kind; 0 when not named.  The
 #: rigid kind's slip rate and jump rate are the step's V^{n+½}, its slip
-#: δ^{n+1} (δ^n + V^{n+½} dt) and the law's state (``state/…``) Ψ^{n+1}; the elastic kind's jump rate is that of the step
-#: that ended at t^n, V^{n−½} (its slip rate and slip are the law's at t^n).
+#: δ^{n+1} (δ^n + V^{n+½} dt) and the law's state (``state/…``) Ψ^{n+1}; the
+#: elastic kind's jump rate is that of the step that ended at t^n, V^{n−½} (its
+#: slip rate and slip are the law's at t^n).
 #: Written on each dataset as ``time_shift_s`` (:func:`time_shift`); readers take
 #: ``InterfaceFile.time_of`` / ``Station.time_of``.
 TIME_SHIFT_STEPS = {"rigid": {"slip_rate": 0.5, "jump_rate_s": 0.5, "slip": 1.0, "state/": 1.0},

@@ -101,7 +101,7 @@ class Recorder:
         self.x1 = x1_all[self.order]
         self.n_point = len(self.x1)
         self.rows = dict(rows)
-        self.kind = "rigid" if type(self.itf).__name__ == "RigidInterface" else "elastic"
+        self.kind = scene.interface_kind  # when each quantity holds (quantities.time_shift)
         self.dt = float(model.dt)
         # stations: nearest Gauss point; its owner records every step
         self.stations = {}

@@ -314,7 +314,7 @@ def estimate(scene, ranks: int = 1) -> Estimate:
         quads, nodes = quads + cells, nodes + extra
         hx = min(hx, exp.steel_dx)
         lam_low, lam_high = max(lam_low, lam_steel / 2.0), max(lam_high, lam_steel)
-    kv = math.sqrt(1.0 + 2.0 * getattr(scene, "damping_eta", 0.0))  # a Kelvin–Voigt layer (model.build)
+    kv = math.sqrt(1.0 + 2.0 * scene.damping_eta)  # a Kelvin–Voigt layer (model.build)
     crit = tuple(2.0 / math.sqrt(lam) / kv if 0 < lam < math.inf else 0.0 for lam in (lam_high, lam_low))
     if scene.dt:
         dt_low = dt_high = scene.dt

@@ -454,8 +454,8 @@ def validate(raw: dict) -> Scene:
     )
     _damping_rules(scene, spec)
     _time_rules(scene)
-    return scene._replace(warnings=tuple(_band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat,
-                                                                                scene.sigma0)))
+    warnings = _band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat, scene.sigma0)
+    return scene._replace(warnings=tuple(warnings))
 
 
 def _damping_rules(scene, spec) -> None:
@@ -469,7 +469,7 @@ def _damping_rules(scene, spec) -> None:
     if eta > 0 and width < spec.dy:
         raise SceneError(f"interface.damping_width = {width!r} m: thinner than one row of cells at the interface "
                          f"(mesh.dy = {spec.dy!r} m); allowed: >= mesh.dy")
-    if eta > 0 and getattr(scene, "experiment", None) is not None:
+    if eta > 0 and scene.experiment is not None:
         raise SceneError("interface.damping_eta: a Kelvin-Voigt layer is not available with the experiment's "
                          "steel buffer and projectile (several materials); allowed: 0")
 
