@@ -22,6 +22,7 @@ from .. import compat  # noqa: I001  (mpi4py before dolfinx: fricfem/compat.py)
 from dolfinx import fem
 from petsc4py import PETSc
 
+from . import sem
 from .grid import TAGS
 from .material import Material
 
@@ -83,12 +84,18 @@ def canonical_rows(num, material: Material) -> tuple:
     float64[n_blocks, 4] (K_xx, K_xy, K_yx, K_yy))."""
     own = np.zeros(len(num.x), dtype=bool)
     own[num.owned_nodes] = True
-    sel = np.flatnonzero(own[num.cells].any(axis=1))  # cells touching an owned node, in grid order
-    cells = num.cells[sel]
-    ke = element_blocks(num.x, cells, material.take(sel) if hasattr(material, "take") else material)
-    R = np.repeat(cells, 3, axis=1).ravel()  # (a, b) pairs: a repeated, b tiled
-    C = np.tile(cells, (1, 3)).ravel()
-    E = np.repeat(sel, 9)
+    el = num.elements
+    cells = num.cells if el is None else el.nodes
+    sel = np.flatnonzero(own[cells].any(axis=1))  # cells touching an owned node, in grid order
+    cells = cells[sel]
+    if el is None:
+        ke = element_blocks(num.x, cells, material.take(sel) if hasattr(material, "take") else material)
+    else:  # spectral elements (fricfem.model.sem); one material
+        ke = sem.element_blocks(el.hx[sel], el.hy[sel], el.p, material.lmbda, material.mu)
+    k = cells.shape[1]
+    R = np.repeat(cells, k, axis=1).ravel()  # (a, b) pairs: a repeated, b tiled
+    C = np.tile(cells, (1, k)).ravel()
+    E = np.repeat(sel, k * k)
     V = ke.reshape(-1, 4)
     keep = own[R]
     R, C, E, V = R[keep], C[keep], E[keep], V[keep]
@@ -105,6 +112,11 @@ def layer_rows(num, material: Material, width: float) -> tuple:
     """The rows of K_L, the stiffness of the cells whose centroid has |x2| < ``width``
     [m] only (a Kelvin–Voigt layer about the interface), as :func:`canonical_rows`
     (the same order and sums; rows outside the layer empty).  One material."""
+    el = num.elements
+    if el is not None:
+        keep = np.abs(el.x2) < width
+        return canonical_rows(num._replace(elements=el._replace(
+            nodes=el.nodes[keep], hx=el.hx[keep], hy=el.hy[keep], x2=el.x2[keep])), material)
     centroid_x2 = num.x[num.cells][:, :, 1].mean(axis=1)
     return canonical_rows(num._replace(cells=num.cells[np.abs(centroid_x2) < width]), material)
 
@@ -115,14 +127,19 @@ def canonical_mass(num, rho) -> np.ndarray:
     scalar or float64[n_grid_cells]."""
     own = np.zeros(len(num.x), dtype=bool)
     own[num.owned_nodes] = True
-    sel = np.flatnonzero(own[num.cells].any(axis=1))
-    cells = num.cells[sel]
-    pa, pb, pc = num.x[cells[:, 0]], num.x[cells[:, 1]], num.x[cells[:, 2]]
-    det = (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pc[:, 0] - pa[:, 0]) * (pb[:, 1] - pa[:, 1])
-    share = (rho[sel] if np.ndim(rho) else rho) * (0.5 * det) / 3.0  # rho: a scalar or one per grid cell
+    el = num.elements
+    cells = num.cells if el is None else el.nodes
+    sel = np.flatnonzero(own[cells].any(axis=1))
+    cells = cells[sel]
+    if el is None:
+        pa, pb, pc = num.x[cells[:, 0]], num.x[cells[:, 1]], num.x[cells[:, 2]]
+        det = (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pc[:, 0] - pa[:, 0]) * (pb[:, 1] - pa[:, 1])
+        share = (rho[sel] if np.ndim(rho) else rho) * (0.5 * det) / 3.0  # rho: a scalar or one per grid cell
+        V = np.repeat(share, 3)[:, None]
+    else:  # the GLL quadrature's diagonal mass, exact (fricfem.model.sem.element_mass)
+        V = sem.element_mass(el.hx[sel], el.hy[sel], el.p, rho).reshape(-1, 1)
     R = cells.ravel()
-    E = np.repeat(sel, 3)
-    V = np.repeat(share, 3)[:, None]
+    E = np.repeat(sel, cells.shape[1])
     keep = own[R]
     local = num.block_of_node[R[keep]]
     order = np.lexsort((E[keep], local))
@@ -215,15 +232,26 @@ def edge_weights(num, names, dofs) -> np.ndarray:
     ``dofs`` [m per m]: half of each edge's length to each of its nodes, summed
     in grid-edge order."""
     tags = [TAGS[n] for n in names]
-    edges = num.facets[np.isin(num.facet_tags, tags)]
-    length = np.linalg.norm(num.x[edges[:, 1]] - num.x[edges[:, 0]], axis=1)
+    on = np.isin(num.facet_tags, tags)
+    edges = num.facets[on]
     R = edges.ravel()
     E = np.repeat(np.arange(len(edges)), 2)
     order = np.lexsort((E, R))
-    start, w = _sum_in_order(R[order][:, None], np.repeat(0.5 * length, 2)[order][:, None])
+    start, w = _sum_in_order(R[order][:, None], _shares(num, on).ravel()[order][:, None])
     weight = np.zeros(len(num.x))
     weight[R[order][start]] = w[:, 0]
     return weight[num.node_of_block[np.asarray(dofs) // 2]]
+
+
+def _shares(num, on) -> np.ndarray:
+    """The facets ``on`` (a mask)'s shares of ∫ N_i ds for their two nodes,
+    float64[n, 2] [m]: half of each edge's length (crossed triangles), or the
+    GLL weights (spectral elements: ``num.facet_share``)."""
+    if num.facet_share is not None:
+        return num.facet_share[on]
+    edges = num.facets[on]
+    length = np.linalg.norm(num.x[edges[:, 1]] - num.x[edges[:, 0]], axis=1)
+    return np.repeat(0.5 * length, 2).reshape(-1, 2)
 
 
 def dashpots(num, names, material: Material) -> tuple:
@@ -237,13 +265,13 @@ def dashpots(num, names, material: Material) -> tuple:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 2))
     rows, vals, order_e = [], [], []
     for name in names:
-        edges = num.facets[num.facet_tags == TAGS[name]]
-        length = np.linalg.norm(num.x[edges[:, 1]] - num.x[edges[:, 0]], axis=1)
+        on = num.facet_tags == TAGS[name]
+        edges = num.facets[on]
         normal_x = name in ("left", "right")  # the others are the far edges, normal along x2
         cn, ct = material.rho * material.c_l, material.rho * material.c_s
         c = np.array([cn, ct] if normal_x else [ct, cn])
         rows.append(edges.ravel())
-        vals.append(np.repeat(0.5 * length, 2)[:, None] * c[None, :])
+        vals.append(_shares(num, on).ravel()[:, None] * c[None, :])
         order_e.append(np.repeat(np.flatnonzero(num.facet_tags == TAGS[name]), 2))
     R, V, E = np.concatenate(rows), np.vstack(vals), np.concatenate(order_e)
     local = num.block_of_node[R]

@@ -18,6 +18,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import sem
+
 #: Physical-group ids by name (cells: plates; facets: edges).
 TAGS = {
     "lower": 1,
@@ -88,12 +90,26 @@ class PlateGrid(NamedTuple):
     edges: dict
 
 
-def plate_grid(spec, upper: bool) -> PlateGrid:
-    """Build one plate's crossed-triangle grid and its named boundary edges."""
+def plate_axes(spec, upper: bool) -> tuple:
+    """The cell (element) edges of one plate along x1 and x2, increasing."""
     xs = axis_nodes(spec.length, (spec.fine_x0, spec.fine_x1), spec.dx, spec.grading, spec.max_size, ())
     ys = axis_nodes(spec.height, (0.0, spec.fine_height), spec.dy, spec.grading, spec.max_size, (spec.impact_b,))
     if not upper:
         ys = -ys[::-1]  # lower plate: x2 from -height up to 0
+    return xs, ys
+
+
+def degree(spec) -> int:
+    """The element degree of a mesh (``mesh.degree``; 1: crossed linear triangles)."""
+    return int(getattr(spec, "degree", 1))
+
+
+def plate_grid(spec, upper: bool) -> PlateGrid:
+    """Build one plate's grid and its named boundary edges: crossed triangles
+    (degree 1), or the GLL lattice of its spectral elements (:func:`lattice_grid`)."""
+    xs, ys = plate_axes(spec, upper)
+    if degree(spec) > 1:
+        return lattice_grid(spec, xs, ys, upper)
     nx, ny = len(xs) - 1, len(ys) - 1
     X, Y = np.meshgrid(xs, ys, indexing="xy")  # [ny+1, nx+1]
     corners = np.column_stack([X.ravel(), Y.ravel()])
@@ -114,6 +130,34 @@ def plate_grid(spec, upper: bool) -> PlateGrid:
         [np.column_stack(t) for t in ((a, b, e), (b, c, e), (c, d, e), (d, a, e))]
     ).astype(np.int64)
 
+    return PlateGrid(x, cells, _named_edges(spec, xs, ys, vid, upper))
+
+
+def line_shares(edges: np.ndarray, p: int) -> np.ndarray:
+    """Each edge of a node line's share of ∫ N_i ds for its two nodes,
+    float64[n, 2] [m]: half its length to each (degree 1); on the GLL lattice of
+    the element edges ``edges`` (p >= 2), the lattice edge between GLL points k
+    and k+1 of an element of size h gives its left node w_k h/2 when k = 0 (a
+    corner's weight from this element), else half of it (the other half comes
+    from the edge on the node's left), and its right node likewise, so that a
+    node's shares sum to its line weight ∫ l_i ds (:func:`fricfem.model.sem.lattice`)."""
+    if p == 1:
+        half = 0.5 * np.diff(edges)
+        return np.column_stack([half, half])
+    _, w = sem.gll(p)
+    h = np.repeat(np.diff(edges), p)
+    k = np.tile(np.arange(p), len(edges) - 1)
+    left = np.where(k == 0, w[0], 0.5 * w[k]) * (0.5 * h)
+    right = np.where(k == p - 1, w[p], 0.5 * w[np.minimum(k + 1, p)]) * (0.5 * h)
+    return np.column_stack([left, right])
+
+
+def _named_edges(spec, xs, ys, vid, upper: bool, shares=None) -> dict:
+    """A plate's boundary edges by name, between neighbouring nodes of the node
+    lines ``xs``, ``ys`` (``vid(i, j)``: the node at (xs[i], ys[j])); with
+    ``shares`` = (float64[nx, 2], float64[ny, 2]) of :func:`line_shares` along
+    each axis, each name's edges' shares too (name -> (edges, shares))."""
+    nx, ny = len(xs) - 1, len(ys) - 1
     i = np.arange(nx)
     j = np.arange(ny)
     bottom = np.column_stack([vid(i, 0), vid(i + 1, 0)])
@@ -131,7 +175,93 @@ def plate_grid(spec, upper: bool) -> PlateGrid:
         "right": right,
         "left": left[~hit],
     }
-    return PlateGrid(x, cells, edges)
+    if shares is None:
+        return edges
+    sx, sy = shares
+    along = {f"interface_{name}": sx, f"impact_{name}": sy[hit], "top" if upper else "bottom": sx,
+             "right": sy, "left": sy[~hit]}
+    return {k: (e, along[k]) for k, e in edges.items()}
+
+
+def lattice_grid(spec, xs, ys, upper: bool) -> PlateGrid:
+    """One plate's GLL lattice (:func:`fricfem.model.sem.lattice`) of the spectral
+    elements on the cells ``xs × ys``: its nodes, row by row along x1, and the
+    carrier triangles (each lattice quadrilateral cut in two along its rising
+    diagonal) that hold the nodes for dolfinx, the fields and ParaView.  The
+    elements themselves: :func:`sem_elements`."""
+    p = degree(spec)
+    lx, _ = sem.lattice(xs, p)
+    ly, _ = sem.lattice(ys, p)
+    nx, ny = len(lx) - 1, len(ly) - 1
+    X, Y = np.meshgrid(lx, ly, indexing="xy")
+    x = np.column_stack([X.ravel(), Y.ravel()])
+
+    def vid(i, j):
+        return j * (nx + 1) + i
+
+    I, J = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
+    I, J = I.ravel(), J.ravel()
+    a, b, c, d = vid(I, J), vid(I + 1, J), vid(I + 1, J + 1), vid(I, J + 1)
+    cells = np.vstack([np.column_stack((a, b, c)), np.column_stack((a, c, d))]).astype(np.int64)
+    return PlateGrid(x, cells, _named_edges(spec, lx, ly, vid, upper))
+
+
+class Elements(NamedTuple):
+    """The spectral elements of a grid of degree p >= 2 (both plates, lower first,
+    each plate's row by row along x1).
+
+    nodes  int64[n, (p+1)²]  grid nodes of each element, GLL index i along x1 and
+                             j along x2 at j (p+1) + i
+    hx, hy float64[n]        element sizes [m]
+    x2     float64[n]        x2 of the element's centre [m]
+    p      int
+    """
+
+    nodes: np.ndarray
+    hx: np.ndarray
+    hy: np.ndarray
+    x2: np.ndarray
+    p: int
+
+
+def sem_elements(spec) -> Elements:
+    """The spectral elements of :func:`grid_arrays`' lattice (``mesh.degree`` >= 2)."""
+    p = degree(spec)
+    parts, offset = [], 0
+    for upper in (False, True):
+        xs, ys = plate_axes(spec, upper)
+        ex, ey = len(xs) - 1, len(ys) - 1
+        row = ex * p + 1  # lattice nodes along x1
+        EX, EY = np.meshgrid(np.arange(ex), np.arange(ey), indexing="xy")
+        EX, EY = EX.ravel(), EY.ravel()
+        i = np.tile(np.arange(p + 1), p + 1)
+        j = np.repeat(np.arange(p + 1), p + 1)
+        nodes = offset + (EY[:, None] * p + j[None, :]) * row + EX[:, None] * p + i[None, :]
+        hx, hy = np.diff(xs)[EX], np.diff(ys)[EY]
+        parts.append((nodes, hx, hy, 0.5 * (ys[:-1] + ys[1:])[EY]))
+        offset += row * (ey * p + 1)
+    return Elements(*(np.concatenate([q[k] for q in parts]) for k in range(4)), p)
+
+
+def facet_shares(spec) -> np.ndarray:
+    """Each facet of :func:`grid_arrays` (in its order) shares ∫ N_i ds between its
+    two nodes so, float64[n_facets, 2] [m] (:func:`line_shares`): on a GLL
+    lattice these are the GLL weights, not half of each lattice edge."""
+    p = degree(spec)
+    named = {}
+    for upper in (False, True):
+        xs, ys = plate_axes(spec, upper)
+        if p > 1:
+            lx, ly = sem.lattice(xs, p)[0], sem.lattice(ys, p)[0]
+        else:
+            lx, ly = xs, ys
+        row = len(lx)
+        edges = _named_edges(spec, lx, ly, lambda i, j: j * row + i, upper,
+                             (line_shares(xs, p), line_shares(ys, p)))
+        for name, (_, share) in edges.items():
+            named.setdefault(name, []).append(share)
+    parts = [sh for name in sorted(named, key=lambda n: TAGS[n]) for sh in named[name] if len(sh)]
+    return np.vstack(parts)
 
 
 def grid_arrays(spec) -> tuple:

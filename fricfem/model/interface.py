@@ -390,24 +390,37 @@ def build_pairs(num, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=())
     lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     if len(lo) < 2 or len(lo) != len(up) or not np.array_equal(num.x[lo, 0], num.x[up, 0]):
         raise RuntimeError("interface: the lower and upper interface nodes do not pair up")
+    weights = None
+    if num.facet_share is not None:  # spectral elements: each pair's GLL weight ∫ l_k ds
+        on = num.facet_tags == TAGS["interface_lower"]
+        nodes, share = num.facets[on].ravel(), num.facet_share[on].ravel()
+        order = np.lexsort((np.repeat(np.arange(on.sum()), 2), nodes))
+        weights = np.zeros(len(num.x))
+        np.add.at(weights, nodes[order], share[order])  # in node, then facet order
+        weights = weights[lo]
     return pair_geometry(num.x[lo, 0].copy(), num.global_block[lo], num.global_block[up], (0, 1), template, mass,
-                         comm, prescribed)
+                         comm, prescribed, weights=weights)
 
 
 def pair_geometry(xs, g_a, g_b, comps, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=(),
-                  target: PETSc.Vec | None = None) -> PairGeometry:
+                  target: PETSc.Vec | None = None, weights: np.ndarray | None = None) -> PairGeometry:
     """Split-node pairs along a straight interface: node ``g_a[k]`` (the "lower"
     side) against ``g_b[k]`` (the "upper" one) at position ``xs[k]`` along it,
     dealt to ranks in blocks of SEG_BLOCK; ``comps`` the components gathered as
     the pair kernel's (s, n): (0, 1) for the interface x2 = 0, (1, 0) for a
     face normal to x1 (the experiment's contact).  ``prescribed``: owned local
     dofs whose velocity is prescribed; ``target``: the vector the pairs' forces
-    are inserted into (default: a new one, ``left``).  Collective."""
+    are inserted into (default: a new one, ``left``); ``weights``: each node's
+    length A = ∫ N ds [m per m] (default: half of each adjacent segment, the
+    linear elements').  Collective."""
     pairs = np.flatnonzero((np.arange(len(xs)) // SEG_BLOCK) % comm.size == comm.rank)
-    length = np.diff(xs)
-    A = np.zeros(len(xs))
-    A[:-1] += 0.5 * length  # each node gets half of the segment on its right …
-    A[1:] += 0.5 * length  # … then half of the one on its left
+    if weights is None:
+        length = np.diff(xs)
+        A = np.zeros(len(xs))
+        A[:-1] += 0.5 * length  # each node gets half of the segment on its right …
+        A[1:] += 0.5 * length  # … then half of the one on its left
+    else:
+        A = np.asarray(weights, dtype=np.float64)
     comps = np.asarray(comps)
     gnodes = np.concatenate([g_a[pairs], g_b[pairs]])
     gidx = (2 * gnodes[:, None] + comps[None, :]).ravel().astype(PETSc.IntType)

@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import grid
+
 
 class Numbering(NamedTuple):
     """This rank's dofs against the grid.
@@ -27,6 +29,11 @@ class Numbering(NamedTuple):
     n_owned       int                 owned dof blocks
     block_of_node int64[n_grid]       this rank's local block of a grid node, or −1
     global_block  int64[n_grid]       PETSc global block index of every grid node
+    elements      the spectral elements (:class:`fricfem.model.grid.Elements`) of a
+                  grid of degree >= 2, whose ``cells`` are then the lattice's carrier
+                  triangles (fields, gauges); None for the crossed triangles
+    facet_share   float64[n_facets, 2]  each facet's share of ∫ N_i ds for its two
+                  nodes (:func:`fricfem.model.grid.facet_shares`); None: half its length
     """
 
     x: np.ndarray
@@ -37,6 +44,8 @@ class Numbering(NamedTuple):
     n_owned: int
     block_of_node: np.ndarray
     global_block: np.ndarray
+    elements: object = None
+    facet_share: np.ndarray | None = None
 
     @property
     def owned_nodes(self) -> np.ndarray:
@@ -70,4 +79,9 @@ def numbering(pm, V) -> Numbering:
     global_block[pairs[:, 0]] = pairs[:, 1]
     if (global_block < 0).any():
         raise RuntimeError("numbering: a grid node is owned by no rank")
-    return Numbering(x, cells, facets, facet_tags, node, n_owned, block_of_node, global_block)
+    elements = share = None
+    if grid.degree(pm.spec) > 1:
+        elements, share = grid.sem_elements(pm.spec), grid.facet_shares(pm.spec)
+        for a in (*elements[:4], share):
+            a.setflags(write=False)
+    return Numbering(x, cells, facets, facet_tags, node, n_owned, block_of_node, global_block, elements, share)

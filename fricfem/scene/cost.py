@@ -57,6 +57,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..model.bodies import _steel_axis
+from ..model import sem
 from ..model.grid import axis_nodes
 from .schema import SceneError
 
@@ -225,6 +226,27 @@ def step_bracket(mat, hx: float, hy: float, hy1: float, Cn: float, Cs: float) ->
     return max(centre, corner), high
 
 
+def sem_bracket(mat, hx: float, hy: float, p: int) -> tuple:
+    """(λ_low, λ_high) bracketing λmax of M⁻¹K on spectral elements of degree ``p``
+    (:mod:`fricfem.model.sem`), the smallest element ``hx × hy``: λmax of the one
+    element with its own diagonal mass is above (the element-by-element bound),
+    and half of it below (a node shares its element's mass with at most 3 more)."""
+    ke = sem.element_blocks(np.array([hx]), np.array([hy]), p, mat.lmbda, mat.mu)[0]
+    n = (p + 1) ** 2
+    K = ke.reshape(n, n, 2, 2).transpose(0, 2, 1, 3).reshape(2 * n, 2 * n)
+    m = np.repeat(sem.element_mass(np.array([hx]), np.array([hy]), p, mat.rho)[0], 2)
+    s = 1.0 / np.sqrt(m)
+    lam = float(np.linalg.eigvalsh(s[:, None] * K * s[None, :]).max())
+    return lam / 4.0, lam
+
+
+def sem_cost(p: int) -> float:
+    """A spectral element's memory against a quadrilateral of crossed triangles:
+    the canonical rows and the block CSR hold (p+1)⁴ block entries an element
+    where the crossed quadrilateral's four triangles hold 36."""
+    return (p + 1) ** 4 / 36.0
+
+
 def steel(exp, ys) -> tuple:
     """(cells, nodes, largest element λ) of the experiment's steel bodies
     (:mod:`fricfem.model.bodies`): the buffer spans the plate's x2 lines ``ys``,
@@ -300,12 +322,16 @@ def estimate(scene, ranks: int = 1) -> Estimate:
     xs, ys = axes(spec)
     nx, ny = len(xs) - 1, len(ys) - 1
     quads = 2.0 * nx * ny
-    nodes = 2.0 * ((nx + 1) * (ny + 1) + nx * ny)
+    p = int(spec.degree)
+    nodes = 2.0 * ((nx + 1) * (ny + 1) + nx * ny) if p == 1 else 2.0 * (nx * p + 1) * (ny * p + 1)
     hx, hy = float(np.diff(xs).min()), float(np.diff(ys).min())
     with np.errstate(all="ignore"):
         try:
             springs = (0.0, 0.0) if scene.interface_kind == "rigid" else (scene.Cn, scene.Cs)  # rigid: none
-            lam_low, lam_high = step_bracket(scene.material, hx, hy, float(ys[1] - ys[0]), *springs)
+            if p > 1:  # spectral elements: rigid kind only (scene validation)
+                lam_low, lam_high = sem_bracket(scene.material, hx, hy, p)
+            else:
+                lam_low, lam_high = step_bracket(scene.material, hx, hy, float(ys[1] - ys[0]), *springs)
         except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
             lam_low = lam_high = math.inf
     exp = getattr(scene, "experiment", None)
@@ -322,11 +348,11 @@ def estimate(scene, ranks: int = 1) -> Estimate:
         dt_low, dt_high = (scene.dt_safety * c for c in crit)
     ratio = scene.t_end / dt_low if dt_low > 0 else math.inf
     steps = float(math.floor(ratio + 1e-9)) if math.isfinite(ratio) else math.inf
-    points = nx + 1.0 if scene.interface_kind == "rigid" else 4.0 * nx  # node pairs or Gauss points
+    points = nx * p + 1.0 if scene.interface_kind == "rigid" else 4.0 * nx  # node pairs or Gauss points
     snaps = min(steps, scene.t_end / scene.output.interface_every) + 1
     stations = len(scene.output.stations)
     out = 8.0 * (snaps * points * _QUANTITIES + (steps + 1) * stations * _QUANTITIES)
-    mem = memory_bytes(quads, ranks, 8.0 * snaps * points * _QUANTITIES)
+    mem = memory_bytes(quads * (1.0 if p == 1 else sem_cost(p)), ranks, 8.0 * snaps * points * _QUANTITIES)
     return Estimate(quads, nodes, 2 * nodes, points, (hx, hy), crit, dt_low, dt_high, bool(scene.dt), steps,
                     2 * nodes * steps, out, mem, max(int(ranks), 1))
 

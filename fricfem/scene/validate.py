@@ -142,7 +142,7 @@ def mesh_spec(m: dict) -> mesh_mod.MeshSpec:
             spec = mesh_mod.preset(ref)
         except ValueError as err:
             raise SceneError(str(err)) from None
-    spec = dataclasses.replace(spec, **{k: float(v) for k, v in m.items()
+    spec = dataclasses.replace(spec, **{k: int(v) if k == "degree" else float(v) for k, v in m.items()
                                         if k not in ("preset", "absorbing") and v is not None})
     if not spec.fine_x0 < spec.fine_x1 <= spec.length:
         raise SceneError(f"mesh.fine_x0 = {spec.fine_x0!r} m, mesh.fine_x1 = {spec.fine_x1!r} m: the fine "
@@ -320,9 +320,11 @@ def _scale_warnings(law: str, p: dict, spec, mat: Material, sigma0: float) -> li
         if size > spec.length:
             out.append(f"friction ({law}): the {what} = {size:.3g} m is longer than the plate "
                        f"({spec.length:g} m): the interface cannot weaken within it")
-        elif size < ZONE_CELLS * spec.dx:
-            out.append(f"friction ({law}): the {what} = {size:.3g} m spans {size / spec.dx:.2g} cells of "
-                       f"mesh.dx = {spec.dx:g} m (fewer than {ZONE_CELLS:g}: unresolved)")
+        elif size < ZONE_CELLS * spec.dx / spec.degree:
+            # spectral elements: their nodes, mesh.dx / degree apart on average, resolve the zone
+            cells = "cells of" if spec.degree == 1 else f"node spacings of mesh.dx / mesh.degree = {spec.degree}:"
+            out.append(f"friction ({law}): the {what} = {size:.3g} m spans {size * spec.degree / spec.dx:.2g} "
+                       f"{cells} mesh.dx = {spec.dx:g} m (fewer than {ZONE_CELLS:g}: unresolved)")
     return out
 
 
@@ -453,6 +455,7 @@ def validate(raw: dict) -> Scene:
         damping_eta=float(itf["damping_eta"]), damping_width=float(itf["damping_width"]),
     )
     _damping_rules(scene, spec)
+    _degree_rules(scene, spec)
     _time_rules(scene)
     warnings = _band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat, scene.sigma0)
     return scene._replace(warnings=tuple(warnings))
@@ -472,6 +475,21 @@ def _damping_rules(scene, spec) -> None:
     if eta > 0 and scene.experiment is not None:
         raise SceneError("interface.damping_eta: a Kelvin-Voigt layer is not available with the experiment's "
                          "steel buffer and projectile (several materials); allowed: 0")
+
+
+def _degree_rules(scene, spec) -> None:
+    """Spectral elements (mesh.degree >= 2) carry the rigid interface only (its pairs
+    on the GLL nodes) and the two plates only."""
+    p = int(spec.degree)
+    if p == 1:
+        return
+    if scene.interface_kind != "rigid":
+        raise SceneError(f"mesh.degree = {p}: spectral elements carry the rigid interface only (split-node pairs "
+                         f"on the GLL nodes); interface.kind = {scene.interface_kind!r}; allowed: 'rigid', or "
+                         f"mesh.degree = 1 (the paper's linear triangles) for the elastic interface")
+    if scene.experiment is not None:
+        raise SceneError(f"mesh.degree = {p}: spectral elements are not available with the experiment's steel "
+                         f"buffer and projectile; allowed: 1")
 
 
 def _nucleation_warning(scene) -> list:
