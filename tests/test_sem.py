@@ -93,6 +93,24 @@ def test_stiffness_null_space_and_linear_energy(comm, p):
     assert math.isclose(energy, 2 * w * 2 * spec.length * spec.height, rel_tol=1e-11)
 
 
+@pytest.mark.parametrize("p", [2, 4, 6])
+def test_matrix_free_action_equals_the_assembled_one(comm, p):
+    """The run's K (matrix-free, sum-factorized: SemStiffness) against the
+    canonical rows assembled from the element matrices, on every rank's rows,
+    owned and off-rank columns alike (a graded mesh: elements of many sizes)."""
+    spec = mesh_mod.MeshSpec(length=6e-3, height=3e-3, dx=0.5e-3, dy=0.4e-3, fine_x0=1e-3, fine_x1=3e-3,
+                             fine_height=1e-3, impact_b=1e-3, grading=1.3, max_size=1.5e-3, degree=p)
+    _, _, num = built(spec, comm)
+    A = assembly.Stiffness(num, assembly.canonical_rows(num, MAT), comm)
+    B = assembly.SemStiffness(num, MAT, comm)
+    x, ya, yb = A.createVecRight(), A.createVecRight(), A.createVecRight()
+    x.array[:] = np.sin(1e3 * num.x[num.owned_nodes]).ravel()
+    A.mult(x, ya)
+    B.mult(x, yb)
+    scale = comm.allreduce(float(np.abs(ya.array).max()), op=MPI.MAX)
+    assert comm.allreduce(float(np.abs(ya.array - yb.array).max()), op=MPI.MAX) < 1e-12 * scale
+
+
 def _static_error(p: int, h: float) -> float:
     """Relative L2 error (GLL quadrature) of the static manufactured solution
     u = U (sin ax cos by, cos ax sin by) on both plates, every boundary node

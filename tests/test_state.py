@@ -22,12 +22,14 @@ SCENES = {
     "rigid": ("rupture_sw", ["mesh.preset='coarse'", "interface.kind='rigid'", "output.fields=[]"]),
     "rate_state": ("rsf_aging_2d", ["mesh.dx=1e-3", "mesh.dy=1e-3", "output.fields=[]"]),
     "bodies": ("experiment_42", ["mesh.preset='coarse'", "output.fields=[]"]),
+    "spectral": ("tpv205_2d", ["mesh.degree=3", "mesh.dx=1.6e-3", "mesh.dy=1.6e-3", "output.fields=[]"]),
 }
 
 #: arrays of the model that a step writes as scratch, before it reads them
 #: (path suffixes of :func:`model_arrays`): K u at the interface rows, the gathered
-#: off-rank displacements, the rigid pairs' slot for this step's edge velocity
-SCRATCH = (".sp_ku", ".ug")
+#: off-rank displacements, the rigid pairs' slot for this step's edge velocity, the
+#: spectral elements' K u and their kernel's work space
+SCRATCH = (".sp_ku", ".ug", ".fk", ".scratch")
 
 
 def model_arrays(obj, path="model", seen=None) -> dict:
@@ -112,8 +114,8 @@ def test_stepping_leaves_the_model_unchanged_and_two_states_agree(comm, kind):
     assert before and any(p.endswith(".initial.param_rows") for p in arrays)
     # every array is read-only but the step's scratch, written before it is read in every step: K u at the
     # interface rows, the gathered off-rank displacements, the rigid pairs' slot for the step's edge velocity,
-    # a Kelvin–Voigt layer's force (empty without one)
-    scratch = (".bulk.sp_ku", ".bulk.ug", ".geometry.edge", ".bulk.fd")
+    # a Kelvin–Voigt layer's force (empty without one), the spectral elements' K u and their kernel's work space
+    scratch = (".bulk.sp_ku", ".bulk.ug", ".geometry.edge", ".bulk.fd", ".bulk.fk", ".bulk.scratch")
     assert [p for p, a in arrays.items() if a.flags.writeable and not p.endswith(scratch)] == []
     a = _state(scene, model)
     _step(model, a, 60)

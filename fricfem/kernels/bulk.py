@@ -78,7 +78,8 @@ def _row_mixed(ptr, col, val, x, xg, n_nodes, I):
 def preload(rows, special, u, ug, sp_ku):
     """``K u`` at the interface (preloaded) special nodes into ``sp_ku``
     (float64[2 n_special], by special index), while the interface computes its
-    forces; ``ug`` the gathered off-rank displacements, if a row needs them."""
+    forces; ``ug`` the gathered off-rank displacements, if a row needs them.
+    (Spectral elements: ``rows`` the identity and ``u`` K u itself, :func:`sweep`.)"""
     ptr, col, val = rows
     sp_node, _, _, sp_preloaded, _ = special
     n = ptr.size - 1
@@ -204,7 +205,7 @@ def _row_u(ptr, col, val, x, I):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
+def _plain_rows(ptr, col, val, x, u, unew, v, dt_minv, dt, act, lo, hi, uku):
     """The plain update of the rows ``lo`` <= I < ``hi`` (uint64; none of them
     special), adding each row's u·(K u) to ``uku`` in row order; returns it.
 
@@ -216,7 +217,7 @@ def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
         state = act[I]
         if state == QUIET:
             continue  # u = v = 0 here and at the neighbours: the update is exactly zero
-        s0, s1 = _row_u(ptr, col, val, u, I)
+        s0, s1 = _row_u(ptr, col, val, x, I)
         i = I << _U1
         i1 = i + _U1
         uku += u[i] * s0 + u[i1] * s1
@@ -231,9 +232,12 @@ def _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, hi, uku):
 
 
 @numba.njit(cache=True, _nrt=False)
-def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act, fd):
+def sweep(rows, special, edge, load, x, u, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act, fd):
     """One pass over the owned block rows, the deferred special rows excepted.
 
+    x         float64[2 n]    what the rows multiply: u^n itself (``rows`` K's), or, for
+                              spectral elements, K u^n already (their matrix-free action,
+                              :func:`fricfem.kernels.sem.element_ku`; ``rows`` the identity)
     u         float64[2 n]    u^n (read)                        [m]
     unew      float64[2 n]    u^{n+1} (written)                 [m]
     v         float64[2 n]    v^{n−½} in, v^{n+½} out           [m/s]
@@ -262,12 +266,12 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
     for kk in range(sp_node.size):
         I = sp_node[kk]
         # the plain rows before this special one, then the special row: the rows in order
-        uku = _plain_rows(ptr, col, val, u, unew, v, dt_minv, dt, act, lo, _u64(I), uku)
+        uku = _plain_rows(ptr, col, val, x, u, unew, v, dt_minv, dt, act, lo, _u64(I), uku)
         lo = _u64(I) + _U1
         if I == n or sp_deferred[kk]:
             continue  # the sentinel; or in sweep_deferred, once the messages are in
         i = 2 * I
-        s0, s1 = _row(ptr, col, val, u, I)
+        s0, s1 = _row(ptr, col, val, x, I)
         uku += u[i] * s0 + u[i + 1] * s1
         if fd.size:  # Kelvin–Voigt: the layer's viscous force joins K u (not the strain energy)
             s0 += fd[i]
@@ -282,8 +286,8 @@ def sweep(rows, special, edge, load, u, unew, v, dt_minv, gl, gr, imp_prev, imp_
 
 
 @numba.njit(cache=True, _nrt=False)
-def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
-                   sp_ku, fd):
+def sweep_deferred(rows, special, edge, load, x, u, ug, unew, v, dt_minv, gl, gr, imp_prev, imp_react, absorb,
+                   act, sp_ku, fd):
     """The deferred special rows (interface, MPI boundary), ``ug`` holding the
     gathered off-rank displacements; the preloaded rows' ``K u`` is taken from
     ``sp_ku`` (:func:`preload`).  Otherwise as :func:`sweep`."""
@@ -302,7 +306,7 @@ def sweep_deferred(rows, special, edge, load, u, ug, unew, v, dt_minv, gl, gr, i
             s0 = sp_ku[2 * kk]
             s1 = sp_ku[2 * kk + 1]
         else:
-            s0, s1 = _row_mixed(ptr, col, val, u, ug, n, I)
+            s0, s1 = _row_mixed(ptr, col, val, x, ug, n, I)
         uku += u[i] * s0 + u[i + 1] * s1
         if fd.size:  # Kelvin–Voigt, as in sweep
             s0 += fd[i]

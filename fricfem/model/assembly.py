@@ -217,6 +217,61 @@ class Stiffness:
         return getattr(self.mat, name)
 
 
+class SemStiffness:
+    """K of the spectral elements, matrix-free (:func:`fricfem.kernels.sem.element_ku`):
+    never assembled.  ``mult`` (the power iteration's) gathers the off-rank nodes
+    the elements need and applies the kernel; :meth:`kernel_args` are what the
+    fused step calls it with.  This rank's elements are every element that
+    touches an owned node, in grid order (the sums' order: the same bits on any
+    number of ranks).  One material."""
+
+    def __init__(self, num, material: Material, comm):
+        el = num.elements
+        own = np.zeros(len(num.x), dtype=bool)
+        own[num.owned_nodes] = True
+        sel = np.flatnonzero(own[el.nodes].any(axis=1))
+        nodes = el.nodes[sel]
+        local = num.block_of_node[nodes]
+        off = (local < 0) | (local >= num.n_owned)
+        ghost_nodes = np.unique(nodes[off])  # grid order
+        local[off] = num.n_owned + np.searchsorted(ghost_nodes, nodes[off])
+        self.ghost = num.global_block[ghost_nodes]
+        self.comm = comm
+        self.n_local = 2 * num.n_owned
+        self._args = (np.ascontiguousarray(local, dtype=np.int64), np.ascontiguousarray(el.hx[sel]),
+                      np.ascontiguousarray(el.hy[sel]), float(material.lmbda), float(material.mu),
+                      sem.derivative(el.p).copy(), sem.gll(el.p)[1].copy())
+        for a in self._args:
+            if isinstance(a, np.ndarray):
+                a.setflags(write=False)
+        self._gather = None
+
+    def kernel_args(self) -> tuple:
+        """(nodes as local indices, hx, hy, λ, μ, D, w) for :func:`fricfem.kernels.sem.element_ku`."""
+        return self._args
+
+    def createVecRight(self) -> PETSc.Vec:  # noqa: N802 (PETSc's name)
+        v = PETSc.Vec().create(comm=self.comm)
+        v.setSizes((self.n_local, PETSc.DETERMINE))
+        v.setType(PETSc.Vec.Type.STANDARD)
+        return v
+
+    def mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y = K x (collective)."""
+        # lazy: numba's kernels load only where a run needs them (start-up time)
+        from ..kernels.sem import element_ku
+
+        if self._gather is None:
+            gdofs = (2 * self.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
+            vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
+            self._gather = (PETSc.Scatter().create(x, PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF),
+                                                   vec, None), vec)
+        scatter, vec = self._gather
+        scatter.scatter(x, vec, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+        p = self._args[5].shape[0]
+        element_ku(*self._args, x.array_r, vec.array_r, self.n_local // 2, y.array, np.zeros((3, p, p, 2)))
+
+
 def impact_dofs(V, facet_tags, names) -> np.ndarray:
     """Owned local x1-dof indices on the facets tagged with any of ``names``."""
     if not names:

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import friction
-from ..step.fused import FusedBulk, block_rows
+from ..step.fused import FusedBulk, block_rows, identity_rows
 from ..step.interface import Interface, RigidInterface
 from . import bodies as bodies_mod
 from . import diskcache
@@ -29,7 +29,7 @@ from . import interface as iface_mod
 from . import mesh as mesh_mod
 from .grid import INTERFACE_KINDS
 from .assembly import (canonical_mass, canonical_rows, dashpots, edge_weights, function_space, impact_dofs,
-                       layer_rows, max_eigenvalue, round_down, Stiffness)
+                       layer_rows, max_eigenvalue, round_down, SemStiffness, Stiffness)
 from .numbering import Numbering, numbering
 from .loading import ImpactPulse
 from .material import Material
@@ -114,11 +114,15 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         V = function_space(pm.mesh)
         num = numbering(pm, V)
         cells = material if experiment is None else bodies_mod.cell_materials(num, pm.spec, material, experiment)
-        if experiment is None:  # this rank's rows from the on-disk cache when they are there (.diskcache)
+        if num.elements is not None:  # spectral elements: K matrix-free, never assembled
+            rows = None
+            K = SemStiffness(num, material, comm)
+        elif experiment is None:  # this rank's rows from the on-disk cache when they are there (.diskcache)
             rows = diskcache.cached_rows(pm.spec, material, num, comm, lambda: canonical_rows(num, cells))
+            K = Stiffness(num, rows, comm)
         else:
             rows = canonical_rows(num, cells)
-        K = Stiffness(num, rows, comm)
+            K = Stiffness(num, rows, comm)
         mass = canonical_mass(num, cells.rho)
         dofs = impact_dofs(V, pm.facet_tags, impact_tags)
         if interface_kind == "rigid":
@@ -165,8 +169,12 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     viscous = None
     if xi > 0:
         viscous = (block_rows(num, layer_rows(num, material, width)), xi * dt)
-    bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
-                     dashpots(num, tuple(absorbing), material), viscous=viscous)
+    if rows is None:  # spectral elements: the identity rows pass the matrix-free K u on
+        bulk = FusedBulk(identity_rows(num.n_owned, K.ghost), dt / mass, dt, interface, impact, K.createVecRight(),
+                         comm, dashpots(num, tuple(absorbing), material), viscous=viscous, sem=K.kernel_args())
+    else:
+        bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
+                         dashpots(num, tuple(absorbing), material), viscous=viscous)
     dt_minv = dt / mass
     for a in (mass, dt_minv, *(a for a in num if isinstance(a, np.ndarray))):
         a.setflags(write=False)

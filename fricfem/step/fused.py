@@ -63,6 +63,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..kernels import bulk
+from ..kernels import sem as sem_kernels
 from ..kernels.cache import ensure_fresh
 
 class BlockRows(NamedTuple):
@@ -119,6 +120,14 @@ def block_rows(num, rows) -> BlockRows:
     col[~owned] = n + np.searchsorted(ghost_nodes, cols[~owned])
     return BlockRows(np.asarray(ptr, dtype=np.uint32), col, np.ascontiguousarray(vals.ravel()),
                      num.global_block[ghost_nodes])
+
+
+def identity_rows(n: int, ghost) -> BlockRows:
+    """The identity as block rows of ``n`` owned nodes (spectral elements: the
+    sweep then passes K u^n, computed matrix-free, through); ``ghost`` the global
+    blocks of the off-rank nodes the elements need (gathered each step)."""
+    return BlockRows(np.arange(n + 1, dtype=np.uint32), np.arange(n, dtype=np.uint32),
+                     np.tile(np.array([1.0, 0.0, 0.0, 1.0]), n), np.asarray(ghost, dtype=np.int64))
 
 
 def interface_nodes(interface, template: PETSc.Vec) -> np.ndarray:
@@ -222,7 +231,7 @@ class FusedBulk:
     """
 
     def __init__(self, rows: BlockRows, dt_minv, dt: float, interface, impact, template: PETSc.Vec, comm,
-                 dashpots=(np.zeros(0, dtype=np.int64), np.zeros((0, 2))), viscous=None):
+                 dashpots=(np.zeros(0, dtype=np.int64), np.zeros((0, 2))), viscous=None, sem=None):
         """``rows`` this rank's block rows of K (:func:`block_rows`); ``interface``
         the model's :class:`fricfem.step.interface.Interface` or None (bulk
         alone); ``impact`` a :class:`fricfem.model.build.Impact` (x1 dofs,
@@ -232,7 +241,9 @@ class FusedBulk:
         (:func:`fricfem.model.assembly.dashpots`); ``viscous``: None, or (the block
         rows of the Kelvin–Voigt layer's stiffness K_L (:func:`block_rows`; empty rows
         outside the layer), η [s]): the force η K_L v^{n−½} joins K u^n in the layer
-        (:meth:`advance`).  Collective."""
+        (:meth:`advance`); ``sem``: None, or the spectral elements' matrix-free
+        action (:meth:`fricfem.model.assembly.SemStiffness.kernel_args`), whose K u^n
+        the rows, then the identity (:func:`identity_rows`), pass on.  Collective."""
         ensure_fresh()  # numba's disk cache matches the sources (fricfem.kernels.cache)
         self.dt = float(dt)
         dt_minv = np.asarray(dt_minv, dtype=np.float64)
@@ -266,6 +277,9 @@ class FusedBulk:
         self._special = tuple(self.special)
         self.ghost_scatter, self.ghost_vec = _ghost_gather(self.rows.ghost, template, comm)
         self.ug = np.zeros(0) if self.ghost_vec is None else self.ghost_vec.array
+        self.sem = None if sem is None else tuple(sem)
+        self.fk = np.zeros(2 * self.n_nodes if sem is not None else 0)  # K u^n of the spectral elements
+        self.scratch = np.zeros((3, 1, 1, 2) if sem is None else (3, sem[5].shape[0], sem[5].shape[0], 2))
         self.fd = np.zeros(0)  # no Kelvin–Voigt layer: the kernels add nothing
         self.viscous = None
         if viscous is not None:
@@ -303,7 +317,9 @@ class FusedBulk:
         """A fresh activity array (int8[n_nodes]) for a state: at rest, only the
         special rows are awake; otherwise every row is (``kernels.bulk.SPREAD``)."""
         act = np.full(self.n_nodes, bulk.SPREAD, dtype=np.int8)
-        if at_rest and self.viscous is None:  # (a Kelvin–Voigt layer: every row, its force is added after the sweep)
+        # (a Kelvin–Voigt layer: every row, its force is added after the sweep; spectral
+        # elements: every row, the identity rows know no neighbours to wake)
+        if at_rest and self.viscous is None and self.sem is None:
             act[:] = bulk.QUIET
             act[self.special.node[:-1]] = bulk.ACTIVE
         return act
@@ -343,14 +359,20 @@ class FusedBulk:
         if self.interface is not None:
             self.interface.begin_gather(u)  # travels during the sweep
         t1 = time.perf_counter()
-        uku, work, absorbed = bulk.sweep(rows, special, edge, load, ua, una, va, self.dt_minv, gl, gr, imp_prev,
+        x = ua
+        if self.sem is not None:  # spectral elements: K u^n first, matrix-free (it needs the off-rank u^n)
+            if self.ghost_scatter is not None:
+                self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
+            sem_kernels.element_ku(*self.sem, ua, self.ug, self.n_nodes, self.fk, self.scratch)
+            x = self.fk
+        uku, work, absorbed = bulk.sweep(rows, special, edge, load, x, ua, una, va, self.dt_minv, gl, gr, imp_prev,
                                          imp_react, absorb, act, fd)
         t2 = time.perf_counter()
-        if self.ghost_scatter is not None:
+        if self.ghost_scatter is not None and self.sem is None:
             self.ghost_scatter.end(u, self.ghost_vec, insert, forward)
         t3 = time.perf_counter()
         if self.interface is not None:
-            bulk.preload(rows, special, ua, self.ug, self.sp_ku)
+            bulk.preload(rows, special, x, self.ug, self.sp_ku)
             if self.ku is not None:
                 self.ku.array[self.ku_dofs] = self.sp_ku[self.ku_from]
                 if vis is not None:  # the trial velocities see the layer's viscous force too
@@ -358,7 +380,7 @@ class FusedBulk:
             # −F_int(u^n), left and right parts
             gl, gr = self.interface.advance(state, u, dt, started=True, v=v, ku=self.ku, v_edge=load[3])
         t4 = time.perf_counter()
-        uku_d, work_d, absorbed_d = bulk.sweep_deferred(rows, special, edge, load, ua, self.ug, una, va,
+        uku_d, work_d, absorbed_d = bulk.sweep_deferred(rows, special, edge, load, x, ua, self.ug, una, va,
                                                         self.dt_minv, gl, gr, imp_prev, imp_react, absorb, act,
                                                         self.sp_ku, fd)
         if vis is not None:
