@@ -213,3 +213,12 @@ def test_rupture_energy_and_ranks(comm, tmp_dir_shared):
 def test_refused_before_anything_is_built(sets, match):
     with pytest.raises(SceneError, match=match):
         load_scene("tpv205_2d", sets)
+
+
+def test_patch_ends_inside_an_element_are_named():
+    """A patch or barrier end inside a spectral element is smeared over its nodes:
+    the scene says where, and a mesh that puts element edges there says nothing."""
+    off = load_scene("tpv205_2d", ["mesh.degree=6", "mesh.dx=0.6e-3", "mesh.dy=0.6e-3"])
+    assert any("end inside a spectral element at x1 = 5 mm, 17 mm" in w for w in off.warnings), off.warnings
+    on = load_scene("tpv205_2d", ["mesh.degree=6", "mesh.dx=0.5e-3", "mesh.dy=0.5e-3"])
+    assert not any("spectral element" in w for w in on.warnings), on.warnings

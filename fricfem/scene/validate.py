@@ -35,6 +35,7 @@ import numpy as np
 from .. import friction
 from ..keys import NUM, Key, keys_of
 from ..model import bodies
+from ..model import grid
 from ..model import mesh as mesh_mod
 from ..model.grid import OUTER
 from ..model.loading import ImpactPulse
@@ -457,7 +458,8 @@ def validate(raw: dict) -> Scene:
     _damping_rules(scene, spec)
     _degree_rules(scene, spec)
     _time_rules(scene)
-    warnings = _band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat, scene.sigma0)
+    warnings = _band_warnings(sec) + _nucleation_warning(scene) + _scale_warnings(law, params, spec, mat, scene.sigma0) \
+        + _element_edge_warnings(scene, spec)
     return scene._replace(warnings=tuple(warnings))
 
 
@@ -490,6 +492,26 @@ def _degree_rules(scene, spec) -> None:
     if scene.experiment is not None:
         raise SceneError(f"mesh.degree = {p}: spectral elements are not available with the experiment's steel "
                          f"buffer and projectile; allowed: 1")
+
+
+def _element_edge_warnings(scene, spec) -> list:
+    """Spectral elements: a patch's or a friction region's end inside an element is
+    spread over that element's GLL nodes (each pair takes its share's mean), so the
+    step in traction or strength is smeared over up to a whole element, not a node
+    spacing; one warning naming the ends and a cell size that would hold them."""
+    if int(spec.degree) == 1:
+        return []
+    edges = grid.plate_axes(spec, True)[0]
+    ends = sorted({float(e[k]) for e in (*scene.tau0_patches, *scene.regions) for k in ("x1_min", "x1_max")
+                   if 0.0 < float(e[k]) < spec.length})
+    tol = 1e-3 * spec.dx  # the scenes' 1 nm margins put an end just outside a node
+    inside = [x for x in ends if np.abs(edges - x).min() > tol]
+    if not inside:
+        return []
+    listed = ", ".join(f"{x * 1e3:g} mm" for x in inside[:6]) + (" ..." if len(inside) > 6 else "")
+    return [f"mesh.degree = {int(spec.degree)}: interface.patches / friction.regions end inside a spectral element "
+            f"at x1 = {listed} (element edges every mesh.dx = {spec.dx * 1e3:g} mm in the fine region): the step "
+            f"there is spread over the element's nodes; a mesh.dx that divides those positions keeps it sharp"]
 
 
 def _nucleation_warning(scene) -> list:
