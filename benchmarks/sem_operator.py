@@ -386,7 +386,7 @@ def markdown(meta: dict, rows: list, cg: dict | None) -> str:
              "| p | elements | nnz/row | " + " | ".join(f"{k} [ms]" for k in names) + " | "
              + " | ".join(f"{k}/aij" for k in names if k != "aij") + " | mf ns/node | max diff mf | "
              "GFlop/s aij | GFlop/s mf | flops mf/aij | bytes mf/aij |",
-             "|" + "---|" * (5 + 2 * len(names) + 4)]
+             "|" + "---|" * (2 * len(names) + 8)]
     for r in rows:
         s = r["seconds"]
         lines.append(
