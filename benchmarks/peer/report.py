@@ -20,7 +20,13 @@ GOAL_RIGID = 0.5  # % worst rupture-time error of the rigid kind
 #: line styles of the fricfem series by tag (score.py --tag): 1 rank solid, 2 ranks dotted, others dashed
 LINES = {"serial": "-", "tree": ":"}
 #: the tags of the tree's own code, in the order the verdicts consult them (1 rank first: the peer's runs are serial)
-TREE_TAGS = ("serial", "tree")
+TREE_TAGS = ("serial", "tree", "p4-serial", "p6-serial")
+#: the spectral elements' series (score.py --degree p --tag p<p>-serial): their own colours
+COLORS = {"p4-serial": "C3", "p6-serial": "C4"}
+
+
+def _rank_text(tag: str) -> str:
+    return ("1 rank" if "serial" in tag else "2 ranks") + (f", degree {tag[1]}" if tag in COLORS else "")
 
 
 def historical(t: dict) -> bool:
@@ -223,7 +229,7 @@ def verdict_md(prob: dict) -> list:
                 c, how, kind, tag = best
                 r = c / p["cpu_s"]
                 cells.append(f"{label} ({p[metric]:.2f} %, {p['cpu_s']:.0f} s): {'≤ ' if how == 'at most' else ''}"
-                             f"{r:.2f}× ({kind}, {'1 rank' if tag == 'serial' else '2 ranks'}) — "
+                             f"{r:.2f}× ({kind}, {_rank_text(tag)}) — "
                              + ("**met**" if r <= GOAL_CPU else "**not met**"))
         L.append(f"- ≤ {GOAL_CPU} × the peer's CPU at its accuracy, {what}: " + "; ".join(cells))
     for tag in tags:
@@ -233,7 +239,7 @@ def verdict_md(prob: dict) -> list:
         ok = [(h, r) for h, r in pts if r["t_r_pct"] <= GOAL_RIGID]
         res = (f"**met** from h = {ok[0][0] * 1e3:g} mm ({ok[0][1]['t_r_pct']:.2f} %, {ok[0][1]['cpu_s']:.1f} CPU s)"
                if ok else f"**not met** (finest: {pts[-1][1]['t_r_pct']:.2f} %)")
-        L.append(f"- rigid kind, worst Δt_r ≤ {GOAL_RIGID} % ({'1 rank' if tag == 'serial' else '2 ranks'}): {res}; "
+        L.append(f"- rigid kind, worst Δt_r ≤ {GOAL_RIGID} % ({_rank_text(tag)}): {res}; "
                  + ", ".join(f"{h * 1e3:g} mm {r['t_r_pct']:.2f} %" for h, r in pts))
     return L + [""]
 
@@ -288,6 +294,7 @@ def figure(name: str, prob: dict, path: Path) -> None:
                 c = [r["cpu_s"] for _, r in pts]
                 e = [max(r[metric], 1e-3) for _, r in pts]
                 filled = not historical(t)  # the tree's own code: filled markers
+                color = COLORS.get(tag, color)
                 ax.plot(c, e, marker="^" if kind == "rigid" else "v", color=color, mfc=color if filled else "none",
                         ls=LINES.get(tag, "-."), lw=1.6 if "serial" in tag else 0.9,
                         label=f"fricfem {kind} [{tag}]" + (" (historical, not in the tree)" if historical(t) else ""))
@@ -302,7 +309,7 @@ def figure(name: str, prob: dict, path: Path) -> None:
         ax.grid(True, which="both", lw=0.3)
     axes[0].legend(fontsize=6.5, loc="lower left")
     fig.suptitle(f"{name}: error against SEM2DPACK {prob.get('reference', 'p8_h0.0625mm')} versus CPU "
-                 "(fricfem labels: band cell size h in mm)")
+                 "(fricfem labels: band cell size h in mm; degree p: the element size)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -263,8 +263,12 @@ def score_problem(problem: str, args, doc: dict) -> None:
         for h in args.h:
             key = f"{kind}_h{h * 1e3:g}mm"
             rundir = ROOT / "runs" / "peer_score" / args.tag / problem / key
+            extra = []
+            if args.degree > 1:  # spectral elements: the run sem_ladder.py makes at dt_safety 0.9 (reused)
+                rundir = ROOT / "runs" / "sem" / problem / f"p{args.degree}_h{h * 1e3:g}_sf0.9"
+                extra = ["--set", f"mesh.degree={args.degree}", "--set", "time.dt_safety=0.9"]
             print(f"{args.tag} {problem} {key} ...", flush=True)
-            rec = run_fricfem(problem, kind, h, rundir, args.ranks, args.pythonpath, args.t_end, args.rerun)
+            rec = run_fricfem(problem, kind, h, rundir, args.ranks, args.pythonpath, args.t_end, args.rerun, extra)
             err = errors(run_metrics(rundir, kind, xs, ref["end_s"]), ref["stations"])
             runs["runs"][key] = {"kind": kind, "h_m": h, **rec, **err}
             print(f"   cpu {rec['cpu_s']:.1f} s, t_r worst {err['t_r_us']:.3f} us ({err['t_r_pct']:.2f} %), "
@@ -278,6 +282,8 @@ def main(argv=None) -> dict:
                     help="band cell sizes [m]")
     ap.add_argument("--kinds", nargs="+", default=["rigid", "elastic"], choices=["rigid", "elastic"])
     ap.add_argument("--ranks", type=int, default=2)
+    ap.add_argument("--degree", type=int, default=1,
+                    help="mesh.degree (2-6: spectral elements, rigid kind; --h the element size)")
     ap.add_argument("--tag", default="tree", help="name of this fricfem (default: the tree's own)")
     ap.add_argument("--note", help="what this fricfem is (default: as in this tree, on N ranks)")
     ap.add_argument("--pythonpath", help="run fricfem from this source tree instead")

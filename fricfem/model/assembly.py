@@ -250,11 +250,7 @@ class SemStiffness:
         """(nodes as local indices, hx, hy, λ, μ, D, w) for :func:`fricfem.kernels.sem.element_ku`."""
         return self._args
 
-    def createVecRight(self) -> PETSc.Vec:  # noqa: N802 (PETSc's name)
-        v = PETSc.Vec().create(comm=self.comm)
-        v.setSizes((self.n_local, PETSc.DETERMINE))
-        v.setType(PETSc.Vec.Type.STANDARD)
-        return v
+    createVecRight = Stiffness.createVecRight  # noqa: N815 (PETSc's name): a vector of the displacement's layout
 
     def mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """y = K x (collective)."""
