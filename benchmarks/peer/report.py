@@ -274,7 +274,7 @@ def figure(name: str, prob: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5.6))
     for ax, (metric, what) in zip(axes, METRICS):
         for degree, style in (("h", "o-"), ("p8", "s")):
             pts = [(p["cpu_s"], p[metric], lab) for lab, p in prob["peer"].items() if lab.startswith(degree)]
@@ -307,10 +307,11 @@ def figure(name: str, prob: dict, path: Path) -> None:
             ax.plot([], [], "|-", color="0.3", lw=0.7, ms=8, label=f"goal: a peer run's error at {GOAL_CPU} × its CPU")
         ax.set(xscale="log", yscale="log", xlabel="CPU seconds (user + system, all ranks)", ylabel=what)
         ax.grid(True, which="both", lw=0.3)
-    axes[0].legend(fontsize=6.5, loc="lower left")
+    handles, labels = axes[0].get_legend_handles_labels()
     fig.suptitle(f"{name}: error against SEM2DPACK {prob.get('reference', 'p8_h0.0625mm')} versus CPU "
                  "(fricfem labels: band cell size h in mm; degree p: the element size)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.17, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7, frameon=False)  # below: off the data
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
