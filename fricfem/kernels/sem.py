@@ -25,6 +25,21 @@ node, increasing): a node's force has the same bits on any number of ranks.
 """
 
 import numba
+from numba.core import types
+from numba.extending import overload
+
+
+def _at(x, e):
+    """``x[e]`` for an array, ``x`` itself for a scalar (compiled only: the moduli
+    may be one per element or one for all, without a branch in the loop)."""
+    raise NotImplementedError("_at is used inside numba kernels only")
+
+
+@overload(_at, inline="always")
+def _at_impl(x, e):
+    if isinstance(x, types.Array):
+        return lambda x, e: x[e]
+    return lambda x, e: x
 
 
 @numba.njit(inline="always", cache=True, _nrt=False)
@@ -36,7 +51,9 @@ def _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch):
                                  node < n_owned, else n_owned + k, the k-th gathered one
                                  (node j (p+1) + i at GLL index i along x1, j along x2)
     hx, hy  float64[n_el]        element sizes [m]
-    lmbda, mu  float             Lamé moduli [Pa] (plane: the plane-stress λ already)
+    lmbda, mu  float, or float64[n_el]  Lamé moduli [Pa] (plane: the plane-stress λ
+                                 already), one for all elements or one an element
+                                 (several materials: each type compiles its own kernel)
     D       float64[p+1, p+1]    D[k, i] = l_i'(x_k) (:func:`fricfem.model.sem.derivative`)
     w       float64[p+1]         GLL weights
     n1      int                  p + 1 (a constant in each degree's kernel, :data:`KERNELS`)
@@ -44,7 +61,6 @@ def _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch):
     ug      float64[2 n_ghost]   of the gathered off-rank nodes
     scratch float64[3, p+1, p+1, 2]  work space (no allocation in the kernel)
     """
-    lam2 = lmbda + 2.0 * mu
     ue = scratch[0]
     sx = scratch[1]  # W σ_{c1}: (σ11, σ21) weighted
     sy = scratch[2]  # W σ_{c2}: (σ12, σ22) weighted
@@ -54,6 +70,9 @@ def _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch):
         ax = 2.0 / hx[e]
         ay = 2.0 / hy[e]
         quarter = 0.25 * hx[e] * hy[e]
+        lm = _at(lmbda, e)
+        m = _at(mu, e)
+        lam2 = lm + 2.0 * m
         for j in range(n1):
             for i in range(n1):
                 a = nodes[e, j * n1 + i]
@@ -79,9 +98,9 @@ def _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch):
                 e22 = ay * d2y
                 g12 = ay * d1y + ax * d2x
                 W = w[i] * w[j] * quarter
-                s11 = W * (lam2 * e11 + lmbda * e22)
-                s22 = W * (lmbda * e11 + lam2 * e22)
-                s12 = W * (mu * g12)
+                s11 = W * (lam2 * e11 + lm * e22)
+                s22 = W * (lm * e11 + lam2 * e22)
+                s12 = W * (m * g12)
                 sx[j, i, 0] = s11
                 sx[j, i, 1] = s12
                 sy[j, i, 0] = s12
