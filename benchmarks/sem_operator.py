@@ -9,6 +9,8 @@
 #         product; serial, no threads), and, when the module has one kernel a
 #         degree (KERNELS), "mf generic": the same body compiled once for every
 #         degree with p + 1 a run-time value (what the specialisation buys);
+#         "mf moduli/el": the production kernel with λ, μ one an element (what
+#         several materials cost);
 # - bcsr: the same operator assembled from sem.element_blocks into 2×2 block
 #         rows (the fused step's layout: uint32 ptr/col, 4 values a block) and
 #         multiplied by a numba loop over the rows with fricfem.kernels.bulk's
@@ -210,6 +212,9 @@ def methods(c: dict) -> dict:
     out = {"aij": lambda: c["A"].mult(c["px"], c["py"]),
            "bcsr": lambda: bcsr_mult(c["ptr"], c["col"], c["val"], c["x"], c["y"]),
            "mf": lambda: sem_kernels.element_ku(*args)}
+    n_el = len(c["nodes"])
+    per_element = args[:3] + (np.full(n_el, LMBDA), np.full(n_el, MU)) + args[5:]
+    out["mf moduli/el"] = lambda: sem_kernels.element_ku(*per_element)
     if mf_generic is not None:
         out["mf generic"] = lambda: mf_generic(*args)
     return out
@@ -222,9 +227,10 @@ def check(c: dict, ms: dict) -> dict:
     ref = c["py"].array.copy()
     scale = float(np.abs(ref).max())
     out = {"bcsr": float(np.abs(c["y"] - ref).max()) / scale, "mf": float(np.abs(c["f"] - ref).max()) / scale}
-    if "mf generic" in ms:
-        ms["mf generic"]()
-        out["mf generic"] = float(np.abs(c["f"] - ref).max()) / scale
+    for name in ("mf generic", "mf moduli/el"):
+        if name in ms:
+            ms[name]()
+            out[name] = float(np.abs(c["f"] - ref).max()) / scale
     return out
 
 
@@ -322,6 +328,7 @@ def main(argv=None) -> dict:
         callgrind_child(a.side, a.degrees, a.callgrind_calls, a.callgrind_child)
         return {}
 
+    load_start = os.getloadavg()[0]  # the machine is shared: how busy it was
     rows = []
     for p in a.degrees:
         c = setup(a.side, p)
@@ -345,6 +352,7 @@ def main(argv=None) -> dict:
         c["A"].destroy()
         del c, ms
 
+    load_end = os.getloadavg()[0]
     cg = None
     if a.callgrind_side > 0:
         cg_degrees = [p for p in a.degrees if a.callgrind_side % p == 0]
@@ -362,6 +370,7 @@ def main(argv=None) -> dict:
                 numba=numba.__version__, petsc=".".join(map(str, PETSc.Sys.getVersion())),
                 machine=platform.processor() or platform.machine(), cpus=os.cpu_count(),
                 date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                load_average_1min=[round(load_start, 2), round(load_end, 2)],
                 callgrind_side=a.callgrind_side if cg else 0, callgrind_calls=a.callgrind_calls)
     if cg:
         meta["callgrind_dofs"] = 2 * (a.callgrind_side + 1) ** 2
@@ -378,7 +387,8 @@ def markdown(meta: dict, rows: list, cg: dict | None) -> str:
     lines = ["# Spectral elements: K u matrix-free against assembled", "",
              f"`.venv/bin/python benchmarks/sem_operator.py` (method: its header; {meta['date']}, numba "
              f"{meta['numba']}, PETSc {meta['petsc']}, one process on a {meta['cpus']}-core machine shared with "
-             f"other work). A {meta['lx_m']} m × {meta['ly_m']} m rectangle of {meta['side']} GLL intervals a side "
+             f"other work, 1-minute load average {meta.get('load_average_1min', '?')} at the timings' start and "
+             f"end). A {meta['lx_m']} m × {meta['ly_m']} m rectangle of {meta['side']} GLL intervals a side "
              f"for every p: {rows[0]['nodes']} nodes, {rows[0]['dofs']} dofs. Best of {meta['repeats']} "
              "interleaved loops; ratios against PETSc's AIJ MatMult of the same matrix in the same run "
              "(< 1: faster). mf: fricfem.kernels.sem.element_ku; bcsr: the assembled 2×2 block rows with "
