@@ -15,6 +15,7 @@ combined in rank order (:func:`fricfem.model.assembly.ordered_sum`).
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -53,3 +54,39 @@ def rayleigh_sums(x, y, mass, out):
     out[0] = xy
     out[1] = xmx
     out[2] = yy
+
+
+@numba.njit(cache=True)
+def tridiagonal_max(alpha, beta):
+    """The largest eigenvalue of the symmetric tridiagonal matrix with diagonal
+    ``alpha`` (float64[n]) and off-diagonal ``beta`` (float64[n − 1]), by
+    bisection on Sturm counts inside the Gershgorin bound, to the last bits of
+    the interval (plain float arithmetic in a fixed order: the same bits everywhere)."""
+    n = alpha.shape[0]
+    lo = np.inf
+    hi = -np.inf
+    for i in range(n):
+        r = 0.0
+        if i > 0:
+            r += abs(beta[i - 1])
+        if i < n - 1:
+            r += abs(beta[i])
+        lo = min(lo, alpha[i] - r)
+        hi = max(hi, alpha[i] + r)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            break
+        count = 0  # eigenvalues below mid: the negative pivots of LDLᵀ of T − mid
+        d = 1.0
+        for i in range(n):
+            d = alpha[i] - mid - (beta[i - 1] * beta[i - 1] / d if i > 0 else 0.0)
+            if d == 0.0:
+                d = -1e-300 * (abs(mid) + 1.0)
+            if d < 0.0:
+                count += 1
+        if count == n:
+            hi = mid
+        else:
+            lo = mid
+    return hi

@@ -52,8 +52,8 @@ import numpy as np
 FORMAT = 1
 #: modules (relative to the package) whose code computes a cached value
 SOURCES = ("model/assembly.py", "model/grid.py", "model/mesh.py", "model/numbering.py", "model/interface.py",
-           "model/material.py", "model/diskcache.py", "step/interface.py", "kernels/interface.py",
-           "kernels/reduce.py")
+           "model/material.py", "model/diskcache.py", "model/sem.py", "step/interface.py", "kernels/interface.py",
+           "kernels/reduce.py", "kernels/sem.py")
 #: the cache directory's size cap [bytes]
 MAX_BYTES = 256 * 2**20
 _OFF = ("", "off", "0", "no", "false", "none")
