@@ -36,26 +36,6 @@ def dot3(a, b, c):
     return s
 
 
-@numba.njit(cache=True, _nrt=False)
-def rayleigh_sums(x, y, mass, out):
-    """One pass of the power iteration: ``out[0] = Σ x_i y_i`` (x·Kx),
-    ``out[1] = Σ (x_i m_i) x_i`` (x·Mx), then ``y_i /= m_i`` in place and
-    ``out[2] = Σ y_i²`` (|M⁻¹Kx|²), each summed i = 0, 1, 2, ... in turn."""
-    xy = 0.0
-    xmx = 0.0
-    yy = 0.0
-    for i in range(x.shape[0]):
-        xi = x[i]
-        xy += xi * y[i]
-        xmx += (xi * mass[i]) * xi
-        yi = y[i] / mass[i]
-        y[i] = yi
-        yy += yi * yi
-    out[0] = xy
-    out[1] = xmx
-    out[2] = yy
-
-
 @numba.njit(cache=True)
 def tridiagonal_max(alpha, beta):
     """The largest eigenvalue of the symmetric tridiagonal matrix with diagonal

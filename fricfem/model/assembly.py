@@ -6,7 +6,7 @@ K, the mass and the edge weights are summed by fricfem in the grid's order
 (:mod:`.numbering`), not through dolfinx's local assembly, so that they have
 the same bits on any number of ranks.
 The stable step of the explicit central differences is ``2/√λmax`` with λmax
-from a power iteration that includes the interface springs
+from the Lanczos iteration, which includes the interface springs
 (:func:`max_eigenvalue`); the run's step is ``dt_safety`` times it, rounded
 down to 3 significant digits (:func:`round_down`) so that it is the same on
 any number of ranks.
@@ -187,7 +187,7 @@ class Stiffness:
     from the set-up cache, so it needs K's vector layout but not the matrix:
     :meth:`createVecRight` makes a vector of that layout without it (~75 ms
     of a 2-rank run's set-up on the reference mesh, and K's memory).  Anything else
-    (``mult``, the power iteration, the benchmarks' bare MatMult) assembles it
+    (``mult``, the Lanczos iteration, the benchmarks' bare MatMult) assembles it
     on first use and goes to the matrix; that first use is collective, as the
     product it serves."""
 
@@ -219,7 +219,7 @@ class Stiffness:
 
 class SemStiffness:
     """K of the spectral elements, matrix-free (:func:`fricfem.kernels.sem.element_ku`):
-    never assembled.  ``mult`` (the power iteration's) gathers the off-rank nodes
+    never assembled.  ``mult`` (the Lanczos iteration's) gathers the off-rank nodes
     the elements need and applies the kernel; :meth:`kernel_args` are what the
     fused step calls it with.  This rank's elements are every element that
     touches an owned node, in grid order (the sums' order: the same bits on any
@@ -335,7 +335,7 @@ def dashpots(num, names, material: Material) -> tuple:
 
 def _coordinate_noise(num) -> np.ndarray:
     """A deterministic pseudo-random vector keyed on the grid coordinates of the
-    owned dofs (identical on any number of ranks), to start the power iteration."""
+    owned dofs (identical on any number of ranks), to start the Lanczos iteration."""
     x = num.x[num.owned_nodes]
     h = np.sin(x[:, 0] * 12989.8 + x[:, 1] * 78233.0) * 43758.5453
     h = h - np.floor(h)
