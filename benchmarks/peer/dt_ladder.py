@@ -14,9 +14,7 @@ problem and h).
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import time
 from pathlib import Path
 
 import score
@@ -78,15 +76,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--safety", nargs="+", type=float, default=list(SAFETY),
                     help="the dt_safety ladder, largest first (default: %(default)s)")
     args = ap.parse_args(argv)
-    doc = json.loads(RESULT.read_text()) if RESULT.exists() else {"runs": {}}
+    doc = score.load_results(RESULT)
     for h in args.h:
         r = ladder(args.problem, h, Path(args.out), tuple(args.safety))
         doc["runs"][f"{args.problem}/h{h * 1e3:g}"] = r
         print(f"{args.problem} h = {h * 1e3:g} mm: worst Δ_k " + ", ".join(f"{v:.4f}" for v in r["worst_dt_r_us"])
               + " µs", flush=True)
-    doc["date"] = time.strftime("%Y-%m-%d %H:%M")
-    RESULT.write_text(json.dumps(doc, indent=1, default=float))
-    RESULT.with_suffix(".md").write_text(table(doc))
+    score.save_results(RESULT, doc, table)
     return doc
 
 

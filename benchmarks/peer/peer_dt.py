@@ -15,14 +15,13 @@ Results: benchmarks/results/peer_dt.{json,md} (merged by problem and label).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
+import score
 from make_par import GEOMETRY
 from make_tables import parse_info, rupture_time
 from read_sem2dpack import read_fault
@@ -99,15 +98,13 @@ def main(argv=None) -> dict:
     args = ap.parse_args(argv)
     if "SEM2DSOLVE" not in os.environ:
         raise SystemExit("set SEM2DSOLVE to the sem2dsolve executable (benchmarks/peer/README.md)")
-    doc = json.loads(RESULT.read_text()) if RESULT.exists() else {"runs": {}}
+    doc = score.load_results(RESULT)
     for label in args.label:
         r = compare(args.problem, label, Path(args.base), args.courant)
         doc["runs"][f"{args.problem}/{label}"] = r
         print(f"{args.problem} {label}: worst change {r['dt_r_us']:.3f} us at {r['dt_r_x_mm']} mm, "
               f"slip {r['dslip_pct']:.2f} % at {r['dslip_x_mm']} mm", flush=True)
-        doc["date"] = time.strftime("%Y-%m-%d %H:%M")
-        RESULT.write_text(json.dumps(doc, indent=1, default=float))
-        RESULT.with_suffix(".md").write_text(table(doc))
+        score.save_results(RESULT, doc, table)
     return doc
 
 

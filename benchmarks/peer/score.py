@@ -189,6 +189,18 @@ def child(out: str, argv: list) -> None:
     sys.exit(status)
 
 
+def load_results(path: Path) -> dict:
+    """A results file merged run by run (``{"runs": {...}}``), or a new one."""
+    return json.loads(path.read_text()) if path.exists() else {"runs": {}}
+
+
+def save_results(path: Path, doc: dict, table) -> None:
+    """Write ``doc`` (dated) to ``path`` and its table ``table(doc)`` beside it (.md)."""
+    doc["date"] = time.strftime("%Y-%m-%d %H:%M")
+    path.write_text(json.dumps(doc, indent=1, default=float))
+    path.with_suffix(".md").write_text(table(doc))
+
+
 def overrides(problem: str, kind: str, h: float, t_end=None) -> list:
     """--set items of one run: the band's cells, the kind and, for an elastic run,
     each station twice, at the Gauss points on either side of its node."""

@@ -13,8 +13,6 @@ Results: benchmarks/results/sem_ladder.{json,md} (merged by problem, p and h).
 from __future__ import annotations
 
 import argparse
-import json
-import time
 from pathlib import Path
 
 import score
@@ -79,7 +77,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--safety", nargs="+", type=float, default=[0.9, 0.45])
     ap.add_argument("--out", default="runs/sem")
     args = ap.parse_args(argv)
-    doc = json.loads(RESULT.read_text()) if RESULT.exists() else {"runs": {}}
+    doc = score.load_results(RESULT)
     for p in args.p:
         for h in args.h:
             r = one(args.problem, p, h, Path(args.out), args.ranks, tuple(args.safety))
@@ -88,9 +86,7 @@ def main(argv=None) -> dict:
             print(f"{args.problem} p = {p} h = {h * 1e3:g} mm: worst t_r {e['t_r_us']:.3f} us ({e['t_r_pct']:.2f} %), "
                   f"slip {e['slip_pct']:.2f} %, CPU {r['runs'][f'{args.safety[0]:g}']['record']['cpu_s']:.1f} s, "
                   f"dt change {r['dt_change']}", flush=True)
-            doc["date"] = time.strftime("%Y-%m-%d %H:%M")
-            RESULT.write_text(json.dumps(doc, indent=1, default=float))
-            RESULT.with_suffix(".md").write_text(table(doc))
+            score.save_results(RESULT, doc, table)
     return doc
 
 
