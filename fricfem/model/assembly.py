@@ -75,6 +75,14 @@ def _sum_in_order(keys, values) -> tuple:
     return start, acc
 
 
+def _touching(num, cells) -> tuple:
+    """(own bool[n_grid]: the owned grid nodes, sel: the indices of the ``cells``
+    (grid node lists, in grid order) that touch an owned node, increasing)."""
+    own = np.zeros(len(num.x), dtype=bool)
+    own[num.owned_nodes] = True
+    return own, np.flatnonzero(own[cells].any(axis=1))
+
+
 def canonical_rows(num, material: Material) -> tuple:
     """This rank's rows of K in the grid's order, summed over their cells in
     grid-cell order, so that every entry has the same bits on any number of
@@ -82,11 +90,9 @@ def canonical_rows(num, material: Material) -> tuple:
     object with ``take(cells)``, :class:`fricfem.model.bodies.CellMaterials`).  Returns (rows int64[n_owned + 1] block-row pointers in local block
     order, cols int64[n_blocks] grid nodes, increasing within a row, vals
     float64[n_blocks, 4] (K_xx, K_xy, K_yx, K_yy))."""
-    own = np.zeros(len(num.x), dtype=bool)
-    own[num.owned_nodes] = True
     el = num.elements
     cells = num.cells if el is None else el.nodes
-    sel = np.flatnonzero(own[cells].any(axis=1))  # cells touching an owned node, in grid order
+    own, sel = _touching(num, cells)
     cells = cells[sel]
     if el is None:
         ke = element_blocks(num.x, cells, material.take(sel) if hasattr(material, "take") else material)
@@ -125,11 +131,9 @@ def canonical_mass(num, rho) -> np.ndarray:
     """Row-sum lumped mass of the owned dofs, ∫ ρ N_i dx = Σ_cells ρ A/3 over
     each node's cells in grid-cell order (both components) [kg/m]; ``rho`` a
     scalar or float64[n_grid_cells]."""
-    own = np.zeros(len(num.x), dtype=bool)
-    own[num.owned_nodes] = True
     el = num.elements
     cells = num.cells if el is None else el.nodes
-    sel = np.flatnonzero(own[cells].any(axis=1))
+    own, sel = _touching(num, cells)
     cells = cells[sel]
     if el is None:
         pa, pb, pc = num.x[cells[:, 0]], num.x[cells[:, 1]], num.x[cells[:, 2]]
@@ -227,9 +231,7 @@ class SemStiffness:
 
     def __init__(self, num, material: Material, comm):
         el = num.elements
-        own = np.zeros(len(num.x), dtype=bool)
-        own[num.owned_nodes] = True
-        sel = np.flatnonzero(own[el.nodes].any(axis=1))
+        _, sel = _touching(num, el.nodes)
         nodes = el.nodes[sel]
         local = num.block_of_node[nodes]
         off = (local < 0) | (local >= num.n_owned)
@@ -256,16 +258,17 @@ class SemStiffness:
         """y = K x (collective)."""
         # lazy: numba's kernels load only where a run needs them (start-up time)
         from ..kernels.sem import element_ku
+        from ..step.fused import ghost_gather
 
-        if self._gather is None:
-            gdofs = (2 * self.ghost[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
-            vec = PETSc.Vec().createSeq(len(gdofs), comm=PETSc.COMM_SELF)
-            self._gather = (PETSc.Scatter().create(x, PETSc.IS().createGeneral(gdofs, comm=PETSc.COMM_SELF),
-                                                   vec, None), vec)
+        if self._gather is None:  # the fused step's gather of the off-rank nodes (collective)
+            self._gather = ghost_gather(self.ghost, x, self.comm)
         scatter, vec = self._gather
-        scatter.scatter(x, vec, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
-        p = self._args[5].shape[0]
-        element_ku(*self._args, x.array_r, vec.array_r, self.n_local // 2, y.array, np.zeros((3, p, p, 2)))
+        ug = np.zeros(0)
+        if scatter is not None:
+            scatter.scatter(x, vec, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+            ug = vec.array_r
+        n1 = self._args[5].shape[0]  # p + 1; the kernel's work space is the caller's (a model holds no scratch)
+        element_ku(*self._args, x.array_r, ug, self.n_local // 2, y.array, np.zeros((3, n1, n1, 2)))
 
 
 def impact_dofs(V, facet_tags, names) -> np.ndarray:
@@ -280,8 +283,15 @@ def impact_dofs(V, facet_tags, names) -> np.ndarray:
 
 def edge_weights(num, names, dofs) -> np.ndarray:
     """A_i = ∫ N_i ds over the grid edges tagged ``names`` at the owned x1 dofs
-    ``dofs`` [m per m]: half of each edge's length to each of its nodes, summed
-    in grid-edge order."""
+    ``dofs`` [m per m] (:func:`node_weights`)."""
+    return node_weights(num, names)[num.node_of_block[np.asarray(dofs) // 2]]
+
+
+def node_weights(num, names) -> np.ndarray:
+    """A_i = ∫ N_i ds over the grid edges tagged ``names`` at every grid node
+    [m per m] (0 off them): each edge's share to each of its nodes (half its
+    length; spectral elements: the GLL weights, :func:`_shares`), summed in
+    grid-edge order."""
     tags = [TAGS[n] for n in names]
     on = np.isin(num.facet_tags, tags)
     edges = num.facets[on]
@@ -291,7 +301,7 @@ def edge_weights(num, names, dofs) -> np.ndarray:
     start, w = _sum_in_order(R[order][:, None], _shares(num, on).ravel()[order][:, None])
     weight = np.zeros(len(num.x))
     weight[R[order][start]] = w[:, 0]
-    return weight[num.node_of_block[np.asarray(dofs) // 2]]
+    return weight
 
 
 def _shares(num, on) -> np.ndarray:
@@ -367,10 +377,10 @@ def max_eigenvalue(K, mass, interface, num, iterations=600, rtol=1e-12) -> float
     A = M^-½ (K + K_int) M^-½ from a deterministic start (:func:`_coordinate_noise`).
 
     The largest Ritz value (the largest eigenvalue of the Lanczos tridiagonal,
-    :func:`_tridiagonal_max`, by bisection) rises to λmax from below and
+    :func:`fricfem.kernels.reduce.tridiagonal_max`, by bisection) rises to λmax from below and
     converges far faster than the power iteration's Rayleigh quotient, whose
     increments grew too small to notice while it still lay 8e-4 below λmax on
-    the reference meshes (the stable step was overstated by 4e-4).  No
+    the reference meshes (the stable step was overstated by 2e-4).  No
     reorthogonalisation: a lost orthogonality only repeats converged Ritz
     values, never raises the largest above λmax.  Stops when the largest Ritz
     value changes by less than ``rtol`` of itself over :data:`WINDOW` checks,

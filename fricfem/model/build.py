@@ -117,11 +117,9 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         if num.elements is not None:  # spectral elements: K matrix-free, never assembled
             rows = None
             K = SemStiffness(num, material, comm)
-        elif experiment is None:  # this rank's rows from the on-disk cache when they are there (.diskcache)
-            rows = diskcache.cached_rows(pm.spec, material, num, comm, lambda: canonical_rows(num, cells))
-            K = Stiffness(num, rows, comm)
-        else:
-            rows = canonical_rows(num, cells)
+        else:  # this rank's rows from the on-disk cache when they are there (.diskcache)
+            rows = (diskcache.cached_rows(pm.spec, material, num, comm, lambda: canonical_rows(num, cells))
+                    if experiment is None else canonical_rows(num, cells))
             K = Stiffness(num, rows, comm)
         mass = canonical_mass(num, cells.rho)
         dofs = impact_dofs(V, pm.facet_tags, impact_tags)
@@ -169,12 +167,10 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
     viscous = None
     if xi > 0:
         viscous = (block_rows(num, layer_rows(num, material, width)), xi * dt)
-    if rows is None:  # spectral elements: the identity rows pass the matrix-free K u on
-        bulk = FusedBulk(identity_rows(num.n_owned, K.ghost), dt / mass, dt, interface, impact, K.createVecRight(),
-                         comm, dashpots(num, tuple(absorbing), material), viscous=viscous, sem=K.kernel_args())
-    else:
-        bulk = FusedBulk(block_rows(num, rows), dt / mass, dt, interface, impact, K.createVecRight(), comm,
-                         dashpots(num, tuple(absorbing), material), viscous=viscous)
+    spectral = rows is None  # the identity rows pass the matrix-free K u on
+    bulk = FusedBulk(identity_rows(num.n_owned, K.ghost) if spectral else block_rows(num, rows), dt / mass, dt,
+                     interface, impact, K.createVecRight(), comm, dashpots(num, tuple(absorbing), material),
+                     viscous=viscous, sem=K.kernel_args() if spectral else None)
     dt_minv = dt / mass
     for a in (mass, dt_minv, *(a for a in num if isinstance(a, np.ndarray))):
         a.setflags(write=False)

@@ -101,7 +101,7 @@ def plate_axes(spec, upper: bool) -> tuple:
 
 def degree(spec) -> int:
     """The element degree of a mesh (``mesh.degree``; 1: crossed linear triangles)."""
-    return int(getattr(spec, "degree", 1))
+    return int(spec.degree)
 
 
 def plate_grid(spec, upper: bool) -> PlateGrid:

@@ -38,6 +38,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..friction import initial_storage
+from .assembly import node_weights
 from .grid import TAGS
 
 #: Segments are dealt to ranks in blocks of this many, round-robin along x1.
@@ -390,14 +391,8 @@ def build_pairs(num, template: PETSc.Vec, mass: np.ndarray, comm, prescribed=())
     lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     if len(lo) < 2 or len(lo) != len(up) or not np.array_equal(num.x[lo, 0], num.x[up, 0]):
         raise RuntimeError("interface: the lower and upper interface nodes do not pair up")
-    weights = None
-    if num.facet_share is not None:  # spectral elements: each pair's GLL weight ∫ l_k ds
-        on = num.facet_tags == TAGS["interface_lower"]
-        nodes, share = num.facets[on].ravel(), num.facet_share[on].ravel()
-        order = np.lexsort((np.repeat(np.arange(on.sum()), 2), nodes))
-        weights = np.zeros(len(num.x))
-        np.add.at(weights, nodes[order], share[order])  # in node, then facet order
-        weights = weights[lo]
+    # each pair's length ∫ N_k ds along the interface (spectral elements: the GLL weight)
+    weights = node_weights(num, ("interface_lower",))[lo]
     return pair_geometry(num.x[lo, 0].copy(), num.global_block[lo], num.global_block[up], (0, 1), template, mass,
                          comm, prescribed, weights=weights)
 

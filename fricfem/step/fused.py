@@ -199,7 +199,7 @@ class _Viscous(NamedTuple):
     v_old: np.ndarray  # float64[2 len(layer)]: v^{n−½} at the layer rows
 
 
-def _ghost_gather(ghost, template, comm):
+def ghost_gather(ghost, template, comm):
     """(scatter, vector) gathering the off-rank nodes ``ghost`` (global blocks) of
     a vector laid out as ``template``; (None, None) when no rank needs any.  Collective."""
     if not comm.allreduce(len(ghost) > 0, op=MPI.LOR):  # collective: all ranks take part
@@ -275,7 +275,7 @@ class FusedBulk:
             a.setflags(write=False)  # the model's: a step only reads them
         self._rows = tuple(self.rows[:3])  # the kernels' plain tuples
         self._special = tuple(self.special)
-        self.ghost_scatter, self.ghost_vec = _ghost_gather(self.rows.ghost, template, comm)
+        self.ghost_scatter, self.ghost_vec = ghost_gather(self.rows.ghost, template, comm)
         self.ug = np.zeros(0) if self.ghost_vec is None else self.ghost_vec.array
         self.sem = None if sem is None else tuple(sem)
         self.fk = np.zeros(2 * self.n_nodes if sem is not None else 0)  # K u^n of the spectral elements
@@ -286,7 +286,7 @@ class FusedBulk:
             lrows, eta = viscous
             layer = np.flatnonzero(np.diff(lrows.ptr.astype(np.int64)) > 0)
             plain = ~np.isin(layer, self.special.node[:-1])
-            scatter, vec = _ghost_gather(lrows.ghost, template, comm)
+            scatter, vec = ghost_gather(lrows.ghost, template, comm)
             self.viscous = _Viscous(tuple(lrows[:3]), float(eta), layer.astype(np.int64), plain.astype(np.int8),
                                     scatter, vec, np.zeros(0) if vec is None else vec.array,
                                     np.zeros(2 * len(layer)))
