@@ -56,6 +56,10 @@ CASES = [
     ("slip_weakening-elastic-2to1", 2, 1,
      ["rupture_sw", *COARSE, "--set", "time.end=150e-6", "--set", "output.fields=[15e-6,120e-6]",
       "--set", "output.checkpoint_every=10e-6"]),
+    # spectral elements, the elastic kind's one point a node; killed on 2 ranks, resumed on 1
+    ("slip_weakening-elastic-spectral-2to1", 2, 1,
+     ["tpv205_2d", "--set", "mesh.degree=3", "--set", "mesh.dx=1.6e-3", "--set", "mesh.dy=1.6e-3",
+      "--set", "interface.kind='elastic'", "--set", "time.end=20e-6", "--set", "output.checkpoint_every=4e-6"]),
 ]
 
 

@@ -23,6 +23,8 @@ SCENES = {
     "rate_state": ("rsf_aging_2d", ["mesh.dx=1e-3", "mesh.dy=1e-3", "output.fields=[]"]),
     "bodies": ("experiment_42", ["mesh.preset='coarse'", "output.fields=[]"]),
     "spectral": ("tpv205_2d", ["mesh.degree=3", "mesh.dx=1.6e-3", "mesh.dy=1.6e-3", "output.fields=[]"]),
+    "spectral_elastic": ("tpv205_2d", ["mesh.degree=3", "mesh.dx=1.6e-3", "mesh.dy=1.6e-3", "output.fields=[]",
+                                       "interface.kind='elastic'"]),
 }
 
 #: arrays of the model that a step writes as scratch, before it reads them

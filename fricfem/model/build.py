@@ -131,9 +131,13 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         num, mass, dofs, geom = like.num, like.mass, like.impact.dofs, like.interface.geometry
     x1 = geom.x1
 
-    def traction(f):  # a rigid pair carries the mean of a traction field over its share (iface_mod.pair_mean)
-        if interface_kind == "rigid" and callable(f):
-            return iface_mod.pair_mean(f, geom.x1_nodes, geom.pairs)
+    # a point at a node (a rigid pair; the elastic kind on spectral elements) carries the mean of a
+    # traction field over the node's share (iface_mod.pair_mean); a Gauss point inside a segment, its value
+    at_nodes = geom.pairs if interface_kind == "rigid" else geom.segments if len(geom.shape) == 1 else None
+
+    def traction(f):
+        if at_nodes is not None and callable(f):
+            return iface_mod.pair_mean(f, geom.x1_nodes, at_nodes)
         return iface_mod.per_point(f, x1)
 
     points = iface_mod.make_points(

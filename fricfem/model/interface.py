@@ -76,6 +76,10 @@ class Geometry(NamedTuple):
     right     PETSc.Vec          global layout: each node's force from the segment on its right
     left      PETSc.Vec          global layout: each node's force from the segment on its left
     comm      MPI communicator of the mesh
+    n_points  int                every rank's points together (segments × points a segment)
+
+    Spectral elements: a segment is one node pair, its one point at the node
+    (:func:`build_geometry`).
 
     A node's interface force is left + right, added in that order on its owner:
     every node gets each part from exactly one segment (INSERT, no summation
@@ -97,6 +101,7 @@ class Geometry(NamedTuple):
     right: object
     left: object
     comm: object
+    n_points: int
 
 
 def interface_nodes(num, name: str) -> np.ndarray:
@@ -117,7 +122,13 @@ def _slot_scatter(force, template, slots, gblocks) -> PETSc.Scatter:
 def build_geometry(num, template: PETSc.Vec, comm) -> Geometry:
     """Pair the interface nodes of the grid numbering ``num``
     (:mod:`fricfem.model.numbering`) and set up the exchange.  ``template`` is
-    a vector with the layout of the global displacement.  Collective."""
+    a vector with the layout of the global displacement.  Collective.
+
+    The linear triangles integrate the springs at 4 Gauss points a segment.
+    Spectral elements integrate them at the GLL nodes themselves, the
+    quadrature of their mass and stiffness: each node pair is a "segment" of
+    one point at the node (both its ends the node, shape functions (1, 0)),
+    weighted by the node's GLL weight along the interface (its ∫ N ds)."""
     lo, up = interface_nodes(num, "interface_lower"), interface_nodes(num, "interface_upper")
     if len(lo) < 2 or len(lo) != len(up):
         raise RuntimeError(
@@ -131,15 +142,16 @@ def build_geometry(num, template: PETSc.Vec, comm) -> Geometry:
 
     # deal segments out in blocks of SEG_BLOCK, round-robin along x1, so that every
     # rank gets a share of the sliding region near the struck edge (load balance)
-    nseg = len(x1n) - 1
+    nodal = num.facet_share is not None
+    nseg = len(x1n) if nodal else len(x1n) - 1
     segs = np.flatnonzero((np.arange(nseg) // SEG_BLOCK) % comm.size == comm.rank)
-    nodes = np.unique(np.concatenate([segs, segs + 1]))
+    ends = (segs, segs) if nodal else (segs, segs + 1)  # each segment's nodes a, b
+    nodes = np.unique(np.concatenate(ends))
     # gathered work vector: [lower nodes, upper nodes], 2 comps each
     gnodes = np.concatenate([g_lo[nodes], g_up[nodes]])
     gidx = (2 * gnodes[:, None] + np.arange(2)[None, :]).ravel().astype(PETSc.IntType)
     n_loc = len(nodes)
-    a = np.searchsorted(nodes, segs)
-    b = np.searchsorted(nodes, segs + 1)
+    a, b = np.searchsorted(nodes, ends[0]), np.searchsorted(nodes, ends[1])
     seg_w = np.column_stack([a, b, n_loc + a, n_loc + b]).astype(np.int32) * 2
     seg_f = (8 * np.arange(len(segs))[:, None] + np.array([0, 2, 4, 6])[None, :]).astype(np.int32)
 
@@ -150,18 +162,24 @@ def build_geometry(num, template: PETSc.Vec, comm) -> Geometry:
     right.set(0.0)
     left.set(0.0)
     # the segment's left nodes (a, lower and upper) get its force as their "right" part
+    # (a node's own one-point segment, spectral elements: its "left" part stays zero)
     to_right = _slot_scatter(force, right, np.concatenate([seg_f[:, 0], seg_f[:, 2]]),
-                             np.concatenate([g_lo[segs], g_up[segs]]))
+                             np.concatenate([g_lo[ends[0]], g_up[ends[0]]]))
     to_left = _slot_scatter(force, left, np.concatenate([seg_f[:, 1], seg_f[:, 3]]),
-                            np.concatenate([g_lo[segs + 1], g_up[segs + 1]]))
+                            np.concatenate([g_lo[ends[1]], g_up[ends[1]]]))
 
-    shape = np.column_stack([0.5 * (1 - GAUSS_XI), 0.5 * (1 + GAUSS_XI)])
-    xa, xb = x1n[segs], x1n[segs + 1]
-    half = 0.5 * (xb - xa)
-    x1 = (0.5 * (xa + xb)[:, None] + half[:, None] * GAUSS_XI[None, :]).ravel()
-    wq = (half[:, None] * GAUSS_W[None, :]).ravel()
+    if nodal:
+        shape = np.array([[1.0, 0.0]])
+        x1 = x1n[segs].copy()
+        wq = node_weights(num, ("interface_lower",))[lo][segs]
+    else:
+        shape = np.column_stack([0.5 * (1 - GAUSS_XI), 0.5 * (1 + GAUSS_XI)])
+        xa, xb = x1n[segs], x1n[segs + 1]
+        half = 0.5 * (xb - xa)
+        x1 = (0.5 * (xa + xb)[:, None] + half[:, None] * GAUSS_XI[None, :]).ravel()
+        wq = (half[:, None] * GAUSS_W[None, :]).ravel()
     return Geometry(x1n, segs, x1, wq, shape, seg_w, seg_f, scatter, to_right, to_left, work, force, right, left,
-                    comm)
+                    comm, nseg * len(shape))
 
 
 class Points(NamedTuple):

@@ -243,9 +243,10 @@ def _ids(model) -> dict:
     owned = num.owned_nodes
     dofs = np.asarray(model.impact.dofs, dtype=np.int64)
     geom = itf.geometry
-    if hasattr(geom, "segments"):  # elastic: 4 Gauss points a segment
-        points = (4 * np.asarray(geom.segments, dtype=np.int64)[:, None] + np.arange(4)[None, :]).ravel()
-        n_points = 4 * (len(geom.x1_nodes) - 1)
+    if hasattr(geom, "segments"):  # elastic: 4 Gauss points a segment (spectral elements: 1, at the node)
+        ng = len(geom.shape)
+        points = (ng * np.asarray(geom.segments, dtype=np.int64)[:, None] + np.arange(ng)[None, :]).ravel()
+        n_points = geom.n_points
     else:  # rigid: one point a node pair
         points = np.asarray(geom.pairs, dtype=np.int64)
         n_points = len(geom.x1_nodes)

@@ -226,18 +226,25 @@ def step_bracket(mat, hx: float, hy: float, hy1: float, Cn: float, Cs: float) ->
     return max(centre, corner), high
 
 
-def sem_bracket(mat, hx: float, hy: float, p: int) -> tuple:
-    """(λ_low, λ_high) bracketing λmax of M⁻¹K on spectral elements of degree ``p``
-    (:mod:`fricfem.model.sem`), the smallest element ``hx × hy``: λmax of the one
-    element with its own diagonal mass is above (the element-by-element bound),
-    and half of it below (a node shares its element's mass with at most 3 more)."""
+def sem_bracket(mat, hx: float, hy: float, p: int, Cn: float = 0.0, Cs: float = 0.0) -> tuple:
+    """(λ_low, λ_high) bracketing λmax of M⁻¹(K + K_int) on spectral elements of
+    degree ``p`` (:mod:`fricfem.model.sem`), the smallest element ``hx × hy``:
+    λmax of the one element with its own diagonal mass is above (the
+    element-by-element bound), and a quarter of it below (a node shares its
+    element's mass with at most 3 more).  The elastic interface's springs (``Cn``,
+    ``Cs`` [Pa/m]; 0: the rigid kind) join at the interface nodes: a node's spring
+    C w_x hx/2 over its mass ρ (w_x hx/2)(w_end hy/2) is 2C/(ρ w_end hy), w_end =
+    2/(p(p+1)) the end GLL weight across the interface; twice that (the pair's
+    relative mode) is added above, and the one-node Rayleigh quotient is below."""
+    c = max(Cn, Cs)
+    spring = 2.0 * c * p * (p + 1) / 2.0 / (mat.rho * hy)  # 2 C / (ρ w_end hy)
     ke = sem.element_blocks(np.array([hx]), np.array([hy]), p, mat.lmbda, mat.mu)[0]
     n = (p + 1) ** 2
     K = ke.reshape(n, n, 2, 2).transpose(0, 2, 1, 3).reshape(2 * n, 2 * n)
     m = np.repeat(sem.element_mass(np.array([hx]), np.array([hy]), p, mat.rho)[0], 2)
     s = 1.0 / np.sqrt(m)
     lam = float(np.linalg.eigvalsh(s[:, None] * K * s[None, :]).max())
-    return lam / 4.0, lam
+    return max(lam / 4.0, spring), lam + 2.0 * spring
 
 
 def sem_cost(p: int) -> float:
@@ -329,8 +336,8 @@ def estimate(scene, ranks: int = 1) -> Estimate:
     with np.errstate(all="ignore"):
         try:
             springs = (0.0, 0.0) if scene.interface_kind == "rigid" else (scene.Cn, scene.Cs)  # rigid: none
-            if p > 1:  # spectral elements: rigid kind only (scene validation)
-                lam_low, lam_high = sem_bracket(scene.material, hx, hy, p)
+            if p > 1:  # spectral elements: the springs at the interface's GLL nodes
+                lam_low, lam_high = sem_bracket(scene.material, hx, hy, p, *springs)
             else:
                 lam_low, lam_high = step_bracket(scene.material, hx, hy, float(ys[1] - ys[0]), *springs)
         except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
@@ -349,7 +356,8 @@ def estimate(scene, ranks: int = 1) -> Estimate:
         dt_low, dt_high = (scene.dt_safety * c for c in crit)
     ratio = scene.t_end / dt_low if dt_low > 0 else math.inf
     steps = float(math.floor(ratio + 1e-9)) if math.isfinite(ratio) else math.inf
-    points = nx * p + 1.0 if scene.interface_kind == "rigid" else 4.0 * nx  # node pairs or Gauss points
+    # node pairs (the rigid kind; the elastic kind on spectral elements) or 4 Gauss points a segment
+    points = nx * p + 1.0 if scene.interface_kind == "rigid" or p > 1 else 4.0 * nx
     snaps = min(steps, scene.t_end / scene.output.interface_every) + 1
     stations = len(scene.output.stations)
     out = 8.0 * (snaps * points * _QUANTITIES + (steps + 1) * stations * _QUANTITIES)

@@ -480,16 +480,10 @@ def _damping_rules(scene, spec) -> None:
 
 
 def _degree_rules(scene, spec) -> None:
-    """Spectral elements (mesh.degree >= 2) carry the rigid interface only (its pairs
-    on the GLL nodes) and the two plates only."""
+    """Spectral elements (mesh.degree >= 2) carry the two plates only (either
+    interface kind: its pairs or springs on the GLL nodes)."""
     p = int(spec.degree)
-    if p == 1:
-        return
-    if scene.interface_kind != "rigid":
-        raise SceneError(f"mesh.degree = {p}: spectral elements carry the rigid interface only (split-node pairs "
-                         f"on the GLL nodes); interface.kind = {scene.interface_kind!r}; allowed: 'rigid', or "
-                         f"mesh.degree = 1 (the paper's linear triangles) for the elastic interface")
-    if scene.experiment is not None:
+    if p != 1 and scene.experiment is not None:
         raise SceneError(f"mesh.degree = {p}: spectral elements are not available with the experiment's steel "
                          f"buffer and projectile; allowed: 1")
 
