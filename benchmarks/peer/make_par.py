@@ -38,9 +38,28 @@ CS = math.sqrt(MU_SHEAR / RHO)
 LX = 0.070
 LZ = 0.040
 SIGMA0 = 10e6          # normal compression on the fault [Pa]
-EPS = 1e-9             # 1 nm: zone boundaries are put EPS outside the patch
-                       # edges so that nodes lying exactly on an edge take
-                       # the patch value (closed intervals), see README.
+EPS = 1e-9             # 1 nm: the half-width of the bin each zone edge gets
+                       # (zones(): a node lying exactly on an edge takes the
+                       # mean of its two sides), see README.
+
+
+def zones(background, patches):
+    """SEM2DPACK DIST_ORDER0 bins (boundaries, values) for a piecewise-constant
+    field along x: ``background`` everywhere, ``patches`` ((x_min, x_max, value),
+    ...) sorted and apart.  Each patch edge gets a bin 2 EPS wide carrying the
+    mean of its two sides, so that a node lying on the edge has the consistent
+    nodal value of a field that jumps there: its force, value times the node's
+    GLL weight, is the exact integral of the field against the node's basis
+    function (half of it on each side).  A node on an edge that took the patch
+    value instead would lengthen the patch by half its weight at each end, an
+    error of first order in the element size (README, "Zone edges")."""
+    xb, tv = [], [background]
+    for lo, hi, value in patches:
+        edge = 0.5 * (background + value)
+        xb += [lo - EPS, lo + EPS, hi - EPS, hi + EPS]
+        tv += [edge, value, edge, background]
+    return xb, tv
+
 
 # ---------------------------------------------------------------- RSF params
 RSF = dict(f0=0.6, V0=1e-6, L=0.2e-6, b=0.012, a_vw=0.008, a_vs=0.016,
@@ -142,8 +161,7 @@ def par_tpv205(elem, ngll, tend=30e-6, otd=0.0):
     assert abs(nx * elem - LX) < 1e-12 and nz % 2 == 0
     s = header("tpv205_2d slip weakening, heterogeneous tau0", ngll, nx, nz, elem)
     # tau0 zones: bg | 17-23: 6.5 MPa | bg | 32-38: 6.8 MPa | bg | 47-53: 5.167 MPa | bg
-    xb = [17e-3 - EPS, 23e-3 + EPS, 32e-3 - EPS, 38e-3 + EPS, 47e-3 - EPS, 53e-3 + EPS]
-    tv = [5.833e6, 6.50e6, 5.833e6, 6.80e6, 5.833e6, 5.167e6, 5.833e6]
+    xb, tv = zones(5.833e6, ((17e-3, 23e-3, 6.50e6), (32e-3, 38e-3, 6.80e6), (47e-3, 53e-3, 5.167e6)))
     mb = [5e-3 - EPS, 65e-3 + EPS]
     mv = [10000.0, 0.677, 10000.0]
     s += f"""&BC_DEF tags=5,6, kind='DYNFLT' /
@@ -165,8 +183,7 @@ def par_rsf(elem, ngll, tau_nuc=0.80, tau_bg=0.625, tend=30e-6, otd=0.0):
     nz = int(round(2 * LZ / elem))
     assert abs(nx * elem - LX) < 1e-12 and nz % 2 == 0
     s = header("rsf_aging_2d rate-and-state aging law", ngll, nx, nz, elem)
-    xb = [32e-3 - EPS, 38e-3 + EPS]
-    tv = [tau_bg * SIGMA0, tau_nuc * SIGMA0, tau_bg * SIGMA0]
+    xb, tv = zones(tau_bg * SIGMA0, ((32e-3, 38e-3, tau_nuc * SIGMA0),))
     # a(x): piecewise linear knots (exact at every node)
     a_lines = "\n".join(f"{fmt(x)} {fmt(v)}" for x, v in A_KNOTS)
     # theta_ini(x): from the BACKGROUND shear stress tau_bg*sigma0 and the
@@ -230,8 +247,7 @@ def par_rsf_slip(elem, ngll, tend=40e-6, otd=0.0, tau_bg=None, tau_nuc=None):
     nz = int(round(2 * lz / elem))
     assert abs(nx * elem - lx) < 1e-12 and nz % 2 == 0
     s = header("rsf_slip_2d rate-and-state slip law, supershear", ngll, nx, nz, elem, lx, lz)
-    xb = [SLIP_PATCH[0] - EPS, SLIP_PATCH[1] + EPS]
-    tv = [tau_bg * SIGMA0, tau_nuc * SIGMA0, tau_bg * SIGMA0]
+    xb, tv = zones(tau_bg * SIGMA0, ((*SLIP_PATCH, tau_nuc * SIGMA0),))
     a_lines = "\n".join(f"{fmt(x)} {fmt(v)}" for x, v in SLIP_A_KNOTS)
     xs_k = [x for x, _ in SLIP_A_KNOTS]
     xn = fault_nodes_x(nx, ngll, lx)

@@ -31,6 +31,12 @@ RESULT = HERE.parents[1] / "benchmarks" / "results" / "peer_dt.json"
 T_R_MIN = 1e-6  # s: the nucleation patch's stations are not scored (score.py)
 
 
+def need_peer() -> None:
+    """Stop with the one thing to do when the peer's executable is not named."""
+    if "SEM2DSOLVE" not in os.environ:
+        raise SystemExit("set SEM2DSOLVE to the sem2dsolve executable (benchmarks/peer/README.md)")
+
+
 def run(problem: str, label: str, courant: float, base: Path) -> Path:
     par = (HERE / problem / f"Par_{label}.inp").read_text()
     par, n = re.subn(r"Courant=[\d.d+-]+", f"Courant={courant!r}d0", par)
@@ -96,8 +102,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--courant", type=float, default=0.5, help="the Par files' Courant number")
     ap.add_argument("--base", default="/var/tmp/fricfem-peer-dt")
     args = ap.parse_args(argv)
-    if "SEM2DSOLVE" not in os.environ:
-        raise SystemExit("set SEM2DSOLVE to the sem2dsolve executable (benchmarks/peer/README.md)")
+    need_peer()
     doc = score.load_results(RESULT)
     for label in args.label:
         r = compare(args.problem, label, Path(args.base), args.courant)

@@ -20,13 +20,14 @@ GOAL_RIGID = 0.5  # % worst rupture-time error of the rigid kind
 #: line styles of the fricfem series by tag (score.py --tag): 1 rank solid, 2 ranks dotted, others dashed
 LINES = {"serial": "-", "tree": ":"}
 #: the tags of the tree's own code, in the order the verdicts consult them (1 rank first: the peer's runs are serial)
-TREE_TAGS = ("serial", "tree", "p4-serial", "p6-serial")
-#: the spectral elements' series (score.py --degree p --tag p<p>-serial): their own colours
-COLORS = {"p4-serial": "C3", "p6-serial": "C4"}
+TREE_TAGS = ("serial", "tree", "p4-serial", "p6-serial", "p4-dt0.45-serial", "p6-dt0.45-serial")
+#: the spectral elements' series (score.py --degree p [--safety 0.45] --tag ...): their own colours
+COLORS = {"p4-serial": "C3", "p6-serial": "C4", "p4-dt0.45-serial": "C5", "p6-dt0.45-serial": "C6"}
 
 
 def _rank_text(tag: str) -> str:
-    return ("1 rank" if "serial" in tag else "2 ranks") + (f", degree {tag[1]}" if tag in COLORS else "")
+    return (("1 rank" if "serial" in tag else "2 ranks") + (f", degree {tag[1]}" if tag in COLORS else "")
+            + (", dt_safety 0.45" if "-dt0.45" in tag else ""))
 
 
 def historical(t: dict) -> bool:

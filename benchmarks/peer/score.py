@@ -276,15 +276,36 @@ def score_problem(problem: str, args, doc: dict) -> None:
             key = f"{kind}_h{h * 1e3:g}mm"
             rundir = ROOT / "runs" / "peer_score" / args.tag / problem / key
             extra = []
-            if args.degree > 1:  # spectral elements: the run sem_ladder.py makes at dt_safety 0.9 (reused)
-                rundir = ROOT / "runs" / "sem" / problem / f"p{args.degree}_h{h * 1e3:g}_sf0.9"
-                extra = ["--set", f"mesh.degree={args.degree}", "--set", "time.dt_safety=0.9"]
+            if args.degree > 1:  # spectral elements: the run sem_ladder.py makes at --safety (reused)
+                import sem_ladder
+
+                rundir = sem_ladder.rundir(ROOT / "runs" / "sem", problem, args.degree, h, args.uniform, args.safety)
+                extra = sem_ladder.layout(args.degree, h, args.uniform, args.safety)
             print(f"{args.tag} {problem} {key} ...", flush=True)
             rec = run_fricfem(problem, kind, h, rundir, args.ranks, args.pythonpath, args.t_end, args.rerun, extra)
             err = errors(run_metrics(rundir, kind, xs, ref["end_s"]), ref["stations"])
             runs["runs"][key] = {"kind": kind, "h_m": h, **rec, **err}
             print(f"   cpu {rec['cpu_s']:.1f} s, t_r worst {err['t_r_us']:.3f} us ({err['t_r_pct']:.2f} %), "
                   f"V_peak {err['v_peak_pct']:.1f} %, slip {err['slip_pct']:.2f} %", flush=True)
+
+
+def rescore(doc: dict) -> None:
+    """Every stored fricfem run's and every peer run's errors again, against each
+    problem's reference as it now is (the stations' own metrics are stored with
+    each run, so nothing runs again; the peer's tables come from its summaries)."""
+    for problem, prob in doc["problems"].items():
+        label_ref = reference(problem)
+        ref = peer_metrics(problem, label_ref)
+        prob["reference"] = label_ref
+        prob["peer"] = {}
+        for label in (lab for lab in PEER_RUNS if lab in peer_summary(problem)["resolutions"] and lab != label_ref):
+            p = peer_metrics(problem, label)
+            prob["peer"][label] = {"cpu_s": p["cpu_s"], **errors(p["stations"], ref["stations"])}
+        for series in prob["fricfem"].values():
+            for run in series["runs"].values():
+                m = {s["x_mm"]: {"t_r": s["t_r_s"], "v_peak": s["v_peak"], "slip": s["slip_m"]}
+                     for s in run["stations"]}
+                run.update(errors(m, ref["stations"]))
 
 
 def main(argv=None) -> dict:
@@ -296,6 +317,10 @@ def main(argv=None) -> dict:
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--degree", type=int, default=1,
                     help="mesh.degree (2-6: spectral elements, rigid kind; --h the element size)")
+    ap.add_argument("--safety", type=float, default=0.9,
+                    help="time.dt_safety of the spectral runs (sem_ladder.py makes 0.9 and 0.45)")
+    ap.add_argument("--uniform", action="store_true",
+                    help="spectral elements over the whole box at --h (sem_ladder.py --uniform)")
     ap.add_argument("--tag", default="tree", help="name of this fricfem (default: the tree's own)")
     ap.add_argument("--note", help="what this fricfem is (default: as in this tree, on N ranks)")
     ap.add_argument("--pythonpath", help="run fricfem from this source tree instead")
@@ -303,6 +328,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--rerun", action="store_true")
     ap.add_argument("--out", default=str(RESULTS))
     ap.add_argument("--no-report", action="store_true")
+    ap.add_argument("--rescore", action="store_true",
+                    help="score every stored run again against the references as they now are (runs nothing)")
     args = ap.parse_args(argv)
     args.note = args.note or f"fricfem as in this tree, on {args.ranks} rank{'s' if args.ranks > 1 else ''}"
     out = Path(args.out)
@@ -310,9 +337,13 @@ def main(argv=None) -> dict:
     doc = json.loads(path.read_text()) if path.exists() else {"problems": {}}
     doc.update(reference=REFERENCE, threshold_m_s=THRESHOLD, t_r_min_s=T_R_MIN, machine=os.uname().nodename,
                date=time.strftime("%Y-%m-%d %H:%M"))
-    for problem in args.problems:
+    if args.rescore:
+        rescore(doc)
+    for problem in [] if args.rescore else args.problems:
         score_problem(problem, args, doc)
         out.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(doc, indent=1, default=float))
+    if args.rescore:
         path.write_text(json.dumps(doc, indent=1, default=float))
     if not args.no_report:
         import report

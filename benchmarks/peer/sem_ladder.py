@@ -6,7 +6,12 @@ issue 26's dt criterion).
 
     .venv/bin/python benchmarks/peer/sem_ladder.py --problem tpv205_2d --p 4 --h 0.8e-3 0.4e-3
 
-Runs: runs/sem/<problem>/p<p>_h<h>_sf<safety> (1 rank; reused when complete).
+``--uniform``: the whole box in elements of size h (``mesh.max_size`` = h), the
+peer's layout, instead of the scene's band graded to 2 mm; rsf_slip_2d needs it
+(its supershear front's field outside the band sets the slip in its right half:
+docs/elements.md).  ``--rerun``: run again (CPU measured anew).
+
+Runs: runs/sem/<problem>/p<p>_h<h>[_u]_sf<safety> (1 rank; reused when complete).
 Results: benchmarks/results/sem_ladder.{json,md} (merged by problem, p and h).
 """
 
@@ -20,14 +25,24 @@ import score
 RESULT = score.RESULTS / "sem_ladder.json"
 
 
-def one(problem: str, p: int, h: float, out: Path, ranks: int, safety: tuple) -> dict:
+def rundir(out: Path, problem: str, p: int, h: float, uniform: bool, sf: float) -> Path:
+    return Path(out) / problem / f"p{p}_h{h * 1e3:g}{'_u' if uniform else ''}_sf{sf:g}"
+
+
+def layout(p: int, h: float, uniform: bool, sf: float) -> list:
+    """The --set items of one spectral run (beyond score.overrides')."""
+    return (["--set", f"mesh.degree={p}", "--set", f"time.dt_safety={sf!r}"]
+            + (["--set", f"mesh.max_size={h!r}"] if uniform else []))
+
+
+def one(problem: str, p: int, h: float, out: Path, ranks: int, safety: tuple, uniform: bool = False,
+        rerun: bool = False) -> dict:
     ref = score.peer_metrics(problem, score.reference(problem))
     xs = sorted(ref["stations"])
     runs = {}
     for sf in safety:
-        d = out / problem / f"p{p}_h{h * 1e3:g}_sf{sf:g}"
-        rec = score.run_fricfem(problem, "rigid", h, d, ranks, None,
-                                extra=["--set", f"mesh.degree={p}", "--set", f"time.dt_safety={sf!r}"])
+        d = rundir(out, problem, p, h, uniform, sf)
+        rec = score.run_fricfem(problem, "rigid", h, d, ranks, None, rerun=rerun, extra=layout(p, h, uniform, sf))
         m = score.run_metrics(d, "rigid", xs, ref["end_s"])
         runs[f"{sf:g}"] = {"record": rec, "errors": score.errors(m, ref["stations"]), "metrics": m}
     first, *rest = safety
@@ -40,8 +55,8 @@ def one(problem: str, p: int, h: float, out: Path, ranks: int, safety: tuple) ->
         change = {"dt_r_us": 1e6 * max(d_t), "slip_pct": 100 * max(d_s)}
     for r in runs.values():
         r.pop("metrics")
-    return {"problem": problem, "p": p, "h_m": h, "ranks": ranks, "safety": list(safety), "runs": runs,
-            "dt_change": change}
+    return {"problem": problem, "p": p, "h_m": h, "uniform": uniform, "ranks": ranks, "safety": list(safety),
+            "runs": runs, "dt_change": change}
 
 
 def table(doc: dict) -> str:
@@ -54,13 +69,14 @@ def table(doc: dict) -> str:
         rows = [r for r in doc["runs"].values() if r["problem"] == problem]
         if not rows:
             continue
-        lines += [f"## {problem}", "", "| p | h [mm] | dofs | dt [ns] | CPU [s] | worst Δt_r [µs] | worst Δt_r [%] "
-                  "| worst Δslip [%] | worst ΔV_peak [%] | dt change: t_r [µs], slip [%] |", "|---|---|---|---|---|---|---|---|---|---|"]
-        for r in sorted(rows, key=lambda r: (r["p"], -r["h_m"])):
+        lines += [f"## {problem}", "", "| p | h [mm] | mesh | dofs | dt [ns] | CPU [s] | worst Δt_r [µs] | worst Δt_r [%] "
+                  "| worst Δslip [%] | worst ΔV_peak [%] | dt change: t_r [µs], slip [%] |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for r in sorted(rows, key=lambda r: (r["p"], r.get("uniform", False), -r["h_m"])):
             run = r["runs"][f"{r['safety'][0]:g}"]
             e, rec = run["errors"], run["record"]
             ch = r["dt_change"]
-            lines.append(f"| {r['p']} | {r['h_m'] * 1e3:g} | {rec['dofs']:,} | {rec['dt_s'] * 1e9:.2f} | "
+            lines.append(f"| {r['p']} | {r['h_m'] * 1e3:g} | {'uniform' if r.get('uniform') else 'band'} | "
+                         f"{rec['dofs']:,} | {rec['dt_s'] * 1e9:.2f} | "
                          f"{rec['cpu_s']:.1f} | {e['t_r_us']:.3f} | {e['t_r_pct']:.2f} | {e['slip_pct']:.2f} | "
                          f"{e['v_peak_pct']:.1f} | "
                          + ("—" if ch is None else f"{ch['dt_r_us']:.3f}, {ch['slip_pct']:.2f}") + " |")
@@ -76,12 +92,14 @@ def main(argv=None) -> dict:
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("--safety", nargs="+", type=float, default=[0.9, 0.45])
     ap.add_argument("--out", default="runs/sem")
+    ap.add_argument("--uniform", action="store_true", help="elements of size h over the whole box (module doc)")
+    ap.add_argument("--rerun", action="store_true", help="run again even where a complete run is there")
     args = ap.parse_args(argv)
     doc = score.load_results(RESULT)
     for p in args.p:
         for h in args.h:
-            r = one(args.problem, p, h, Path(args.out), args.ranks, tuple(args.safety))
-            doc["runs"][f"{args.problem}/p{p}/h{h * 1e3:g}"] = r
+            r = one(args.problem, p, h, Path(args.out), args.ranks, tuple(args.safety), args.uniform, args.rerun)
+            doc["runs"][f"{args.problem}/p{p}/h{h * 1e3:g}{'u' if args.uniform else ''}"] = r
             e = r["runs"][f"{args.safety[0]:g}"]["errors"]
             print(f"{args.problem} p = {p} h = {h * 1e3:g} mm: worst t_r {e['t_r_us']:.3f} us ({e['t_r_pct']:.2f} %), "
                   f"slip {e['slip_pct']:.2f} %, CPU {r['runs'][f'{args.safety[0]:g}']['record']['cpu_s']:.1f} s, "
