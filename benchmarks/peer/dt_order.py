@@ -27,6 +27,7 @@ from pathlib import Path
 
 import peer_dt
 import score
+import sem_ladder
 from make_par import GEOMETRY
 from make_tables import parse_info
 
@@ -38,12 +39,10 @@ COURANT = (0.5, 0.25, 0.125, 0.0625)
 SAFETY = (0.9, 0.45, 0.225, 0.1125)
 
 
-def run_fricfem(problem: str, safety: float, base: Path, end_s: float) -> tuple:
+def run_fricfem(problem: str, safety: float, base: Path) -> tuple:
+    """fricfem's run at ``safety`` on the peer's layout (sem_ladder.layout: degree 4, the whole box): (dir, record)."""
     d = base / problem / f"fricfem_sf{safety:g}"
-    rec = score.run_fricfem(problem, "rigid", H, d, 1, None,
-                            extra=["--set", "mesh.degree=4", "--set", f"mesh.max_size={H!r}",
-                                   "--set", f"time.dt_safety={safety!r}"])
-    return d, rec
+    return d, score.run_fricfem(problem, "rigid", H, d, 1, None, extra=sem_ladder.layout(4, H, True, safety))
 
 
 def ladder_stats(times: list) -> dict:
@@ -67,7 +66,7 @@ def problem_result(problem: str, base: Path) -> dict:
     fric = []
     recs = []
     for sf in SAFETY:
-        d, rec = run_fricfem(problem, sf, base, ref["end_s"])
+        d, rec = run_fricfem(problem, sf, base)
         recs.append(rec)
         fric.append(score.run_metrics(d, "rigid", xs, ref["end_s"]))
     rows = []

@@ -41,10 +41,7 @@ def problem_result(problem: str, base: Path, doc: dict) -> dict:
     change = {x: 1e6 * (half[x]["t_r"] - ref[x]["t_r"]) for x in ref
               if ref[x]["t_r"] is not None and half[x]["t_r"] is not None and ref[x]["t_r"] > score.T_R_MIN}
     rows = []
-    for label in score.PEER_RUNS:
-        if label == score.REFERENCE or label not in score.peer_summary(problem)["resolutions"]:
-            continue
-        p = score.peer_metrics(problem, label)
+    for label, p in score.peer_runs(problem).items():
         rows.append({"who": f"SEM2DPACK {label}", "cpu_s": p["cpu_s"],
                      "as_is": score.errors(p["stations"], ref), "dt0": score.errors(p["stations"], ex)})
     prob = doc["problems"].get(problem, {})
@@ -52,7 +49,7 @@ def problem_result(problem: str, base: Path, doc: dict) -> dict:
         for key, run in prob.get("fricfem", {}).get(tag, {}).get("runs", {}).items():
             if run.get("kind") != "rigid":
                 continue
-            m = {s["x_mm"]: {"t_r": s["t_r_s"], "v_peak": s["v_peak"], "slip": s["slip_m"]} for s in run["stations"]}
+            m = score.stored_metrics(run)
             rows.append({"who": f"fricfem [{tag}] {key}", "cpu_s": run["cpu_s"],
                          "as_is": score.errors(m, ref), "dt0": score.errors(m, ex)})
     for r in rows:

@@ -259,16 +259,32 @@ def _record(rec: dict, summary_file: Path) -> dict:
 # --- the study ----------------------------------------------------------------------------
 
 
-def score_problem(problem: str, args, doc: dict) -> None:
+def peer_runs(problem: str) -> dict:
+    """{label: peer_metrics} of every peer run of ``problem`` but its reference, in PEER_RUNS order."""
     label_ref = reference(problem)
-    ref = peer_metrics(problem, label_ref)
-    xs = sorted(ref["stations"])
+    return {lab: peer_metrics(problem, lab) for lab in PEER_RUNS
+            if lab in peer_summary(problem)["resolutions"] and lab != label_ref}
+
+
+def stored_metrics(run: dict) -> dict:
+    """{x_mm: metrics} of a run as stored in peer_score.json (its stations' rows)."""
+    return {s["x_mm"]: {"t_r": s["t_r_s"], "v_peak": s["v_peak"], "slip": s["slip_m"]} for s in run["stations"]}
+
+
+def _score_peer(problem: str, prob: dict) -> dict:
+    """The reference of ``problem``'s entry ``prob`` and every other peer run's errors against it, set in
+    ``prob``; returns the reference's metrics."""
+    prob["reference"] = reference(problem)
+    ref = peer_metrics(problem, prob["reference"])
+    prob["peer"] = {label: {"cpu_s": p["cpu_s"], **errors(p["stations"], ref["stations"])}
+                    for label, p in peer_runs(problem).items()}
+    return ref
+
+
+def score_problem(problem: str, args, doc: dict) -> None:
     prob = doc["problems"].setdefault(problem, {"peer": {}, "fricfem": {}})
-    prob["reference"] = label_ref
-    prob["peer"] = {}
-    for label in (lab for lab in PEER_RUNS if lab in peer_summary(problem)["resolutions"] and lab != label_ref):
-        p = peer_metrics(problem, label)
-        prob["peer"][label] = {"cpu_s": p["cpu_s"], **errors(p["stations"], ref["stations"])}
+    ref = _score_peer(problem, prob)
+    xs = sorted(ref["stations"])
     runs = prob["fricfem"].setdefault(args.tag, {"note": args.note, "runs": {}})
     runs["note"] = args.note
     for kind in args.kinds:
@@ -294,18 +310,10 @@ def rescore(doc: dict) -> None:
     problem's reference as it now is (the stations' own metrics are stored with
     each run, so nothing runs again; the peer's tables come from its summaries)."""
     for problem, prob in doc["problems"].items():
-        label_ref = reference(problem)
-        ref = peer_metrics(problem, label_ref)
-        prob["reference"] = label_ref
-        prob["peer"] = {}
-        for label in (lab for lab in PEER_RUNS if lab in peer_summary(problem)["resolutions"] and lab != label_ref):
-            p = peer_metrics(problem, label)
-            prob["peer"][label] = {"cpu_s": p["cpu_s"], **errors(p["stations"], ref["stations"])}
+        ref = _score_peer(problem, prob)
         for series in prob["fricfem"].values():
             for run in series["runs"].values():
-                m = {s["x_mm"]: {"t_r": s["t_r_s"], "v_peak": s["v_peak"], "slip": s["slip_m"]}
-                     for s in run["stations"]}
-                run.update(errors(m, ref["stations"]))
+                run.update(errors(stored_metrics(run), ref["stations"]))
 
 
 def main(argv=None) -> dict:

@@ -131,9 +131,14 @@ def build(pm, material: Material, pulse: ImpactPulse, law, params, sigma0: float
         num, mass, dofs, geom = like.num, like.mass, like.impact.dofs, like.interface.geometry
     x1 = geom.x1
 
-    # a point at a node (a rigid pair; the elastic kind on spectral elements) carries the mean of a
-    # traction field over the node's share (iface_mod.pair_mean); a Gauss point inside a segment, its value
-    at_nodes = geom.pairs if interface_kind == "rigid" else geom.segments if len(geom.shape) == 1 else None
+    # a point at a node carries the mean of a traction field over the node's share (iface_mod.pair_mean);
+    # a Gauss point inside a segment, the field's value there
+    if interface_kind == "rigid":
+        at_nodes = geom.pairs  # one point a node pair
+    elif len(geom.shape) == 1:
+        at_nodes = geom.segments  # the elastic kind on spectral elements: one point a node, at the node
+    else:
+        at_nodes = None  # the elastic kind on the triangles: 4 Gauss points a segment
 
     def traction(f):
         if at_nodes is not None and callable(f):

@@ -236,8 +236,8 @@ def sem_bracket(mat, hx: float, hy: float, p: int, Cn: float = 0.0, Cs: float = 
     C w_x hx/2 over its mass ρ (w_x hx/2)(w_end hy/2) is 2C/(ρ w_end hy), w_end =
     2/(p(p+1)) the end GLL weight across the interface; twice that (the pair's
     relative mode) is added above, and the one-node Rayleigh quotient is below."""
-    c = max(Cn, Cs)
-    spring = 2.0 * c * p * (p + 1) / 2.0 / (mat.rho * hy)  # 2 C / (ρ w_end hy)
+    w_end = 2.0 / (p * (p + 1))  # the end GLL weight on [-1, 1]
+    spring = 2.0 * max(Cn, Cs) / (mat.rho * w_end * hy)  # one interface node's spring over its mass
     ke = sem.element_blocks(np.array([hx]), np.array([hy]), p, mat.lmbda, mat.mu)[0]
     n = (p + 1) ** 2
     K = ke.reshape(n, n, 2, 2).transpose(0, 2, 1, 3).reshape(2 * n, 2 * n)
