@@ -9,7 +9,10 @@
 # elements) at the peer's stations (17 on tpv205_2d and rsf_aging_2d, 21 on rsf_slip_2d):
 #
 # - rupture time t_r: the first time the slip rate exceeds 1e-3 m/s,
-#   interpolated linearly between samples (the peer's definition);
+#   interpolated linearly between samples (the peer's definition).  A rigid
+#   run's sample is its step's mean rate V^{n+½}: a zero sample means no slip
+#   until its step ends at t^{n+1}, so the crossing out of it is interpolated
+#   from there (the peer's whole-step samples: from the sample; ``rupture_time``);
 # - peak slip rate and the slip at the peer's end time.
 #
 # Errors: the worst |Δt_r| over the stations that rupture after 1 µs (µs and %
@@ -101,21 +104,26 @@ def peer_metrics(problem: str, label: str) -> dict:
 # --- metrics of one history --------------------------------------------------------------
 
 
-def rupture_time(t: np.ndarray, v: np.ndarray, threshold: float = THRESHOLD):
-    """First time v > threshold, interpolated linearly between samples (None: never)."""
+def rupture_time(t: np.ndarray, v: np.ndarray, threshold: float = THRESHOLD, width: float = 0.0):
+    """First time v > threshold, interpolated linearly between samples (None: never).
+    ``width`` [s]: each sample is the mean over an interval this long centred on its
+    time (the rigid kind's step rate: fricfem.analysis.rupture.step_width), so a
+    crossing out of a zero sample starts where that sample's interval ends (the
+    peer's samples are at instants: 0)."""
     k = np.flatnonzero(v > threshold)
     if not len(k):
         return None
     k = int(k[0])
     if k == 0:
         return float(t[0])
-    return float(t[k - 1] + (threshold - v[k - 1]) / (v[k] - v[k - 1]) * (t[k] - t[k - 1]))
+    t0 = t[k - 1] + 0.5 * width if v[k - 1] == 0.0 else t[k - 1]
+    return float(t0 + (threshold - v[k - 1]) / (v[k] - v[k - 1]) * (t[k] - t0))
 
 
-def station_metrics(t_v, v, t_s, slip, t_end: float) -> dict:
+def station_metrics(t_v, v, t_s, slip, t_end: float, width: float = 0.0) -> dict:
     """Rupture time, peak slip rate and the slip at ``t_end`` (interpolated; the
-    last value if the history ends before it)."""
-    return {"t_r": rupture_time(t_v, v), "v_peak": float(np.max(v)) if len(v) else 0.0,
+    last value if the history ends before it); ``width``: :func:`rupture_time`."""
+    return {"t_r": rupture_time(t_v, v, width=width), "v_peak": float(np.max(v)) if len(v) else 0.0,
             "slip": float(np.interp(min(t_end, t_s[-1]), t_s, slip))}
 
 
@@ -134,7 +142,8 @@ def run_metrics(rundir: Path, kind: str, stations_mm, t_end: float) -> dict:
             t = s.time
             legacy = {} if s.shift else {"slip_rate": 0.5 * dt, "slip": dt}  # a file without time_shift_s
             out[x] = station_metrics(s.time_of("slip_rate") + legacy.get("slip_rate", 0.0), s.data["slip_rate"],
-                                     s.time_of("slip") + legacy.get("slip", 0.0), s.data["slip"], t_end)
+                                     s.time_of("slip") + legacy.get("slip", 0.0), s.data["slip"], t_end,
+                                     width=dt)  # the rate of step t^n -> t^{n+1}: its mean
         else:
             a, b = st[f"x{x}mm_l"], st[f"x{x}mm_r"]
             n = min(len(a.time), len(b.time))

@@ -13,7 +13,10 @@ gradient of that field along the fault, V_r = 1 / |dt_r/dx1|.
   positive: a rate-and-state rate grows exponentially before the front,
   and a log-linear interpolation of an exponential is exact; where the
   earlier rate is zero, as ahead of a slip-weakening front, from the slip
-  accumulated in the interval: :func:`rupture_times`).
+  accumulated in the interval: :func:`rupture_times`).  A rate that is the
+  mean over its step (the rigid kind's V^{n+½}, :func:`step_width`) and is
+  zero in a row was zero over the whole of that row's step, so a crossing out
+  of it starts where that step ends, not at the row's time.
 * :func:`nucleation` — the earliest point, and the patch around it that
   ruptured within ``patch_tol`` of it (an overstressed patch breaks at once).
 * :func:`front_speeds` — along each direction apart (a nucleated rupture runs
@@ -52,7 +55,16 @@ NPTS = 9
 AWAY = 10
 
 
-def rupture_times(times, slip_rate, threshold: float = THRESHOLD, slip=None) -> np.ndarray:
+def step_width(shift: float) -> float:
+    """The interval [s] a rate row is the mean over, centred on the time it holds, from
+    its ``time_shift_s``: a rate held half a step off the row's t^n is its step's mean
+    (the rigid kind's slip rate V^{n+½}, the elastic kind's jump rate V^{n−½}:
+    :data:`fricfem.output.quantities.TIME_SHIFT_STEPS`), a step wide; 0 (a value at an
+    instant) for one held at t^n."""
+    return 2.0 * abs(float(shift))
+
+
+def rupture_times(times, slip_rate, threshold: float = THRESHOLD, slip=None, width: float = 0.0) -> np.ndarray:
     """t_r float64[n_p] [s]: the first time |slip_rate| (float64[n_t, n_p], m/s, at
     ``times`` float64[n_t], s) reaches ``threshold`` [m/s], interpolated between the
     row that reaches it and the row before (module docstring); NaN where it never
@@ -67,7 +79,17 @@ def rupture_times(times, slip_rate, threshold: float = THRESHOLD, slip=None) -> 
     for either shape), and the crossing t_s + (threshold/V₁)(t₁ − t_s).  On tpv205_2d (1 and 0.5 mm, rows 0.6 µs apart)
     this is within 0.10 µs of the stations' step-by-step crossings, where the
     linear interpolation from the stick row (used without ``slip``) was 0.40 µs
-    early."""
+    early.
+
+    ``width`` [s]: each row's rate is the mean over an interval this long centred on
+    its time (:func:`step_width`; 0: rates at instants).  A row of rate 0 then means
+    no slip until its interval ends, so a crossing out of it is interpolated from
+    (t₀ + width/2, 0) to (t₁, V₁), not from (t₀, 0): the linear interpolation from t₀
+    would put a rate where the run's own slip stands still.  For the rigid kind's
+    step rates every step this is what the peer's reading of its whole-step rates
+    gives, the crossing at about the last time known to stick; on tpv205_2d (degree
+    4, 1 mm) it halves the change of the rupture times between dt_safety 0.9 and
+    0.1125 (44 → 26 ns worst; docs/interface_kinds.md)."""
     t = np.asarray(times, dtype=np.float64)
     v = np.abs(np.asarray(slip_rate, dtype=np.float64))
     if v.ndim != 2 or v.shape[0] != t.size:
@@ -84,6 +106,8 @@ def rupture_times(times, slip_rate, threshold: float = THRESHOLD, slip=None) -> 
     k1 = k[j]
     t0, t1 = t[k1 - 1], t[k1]
     v0, v1 = v[k1 - 1, j], v[k1, j]
+    if width > 0.0:
+        t0 = np.where(v0 == 0.0, np.minimum(t0 + 0.5 * width, t1), t0)
     with np.errstate(divide="ignore", invalid="ignore"):
         log = (v0 > 0) & (v1 > v0)
         frac = np.where(log, np.log(threshold / v0) / np.log(v1 / v0), (threshold - v0) / (v1 - v0))
@@ -193,29 +217,32 @@ def _mean_speed(front: dict, patch: tuple) -> float:
 
 def station_times(stations: dict, threshold: float = THRESHOLD) -> dict:
     """{name: (x1 [m], t_r [s] or NaN)} of each station's own history (every step):
-    ``stations`` {name: (x1, time float64[n], slip_rate float64[n])}."""
+    ``stations`` {name: (x1, time float64[n], slip_rate float64[n][, width [s]])}
+    (``width``: :func:`rupture_times`, 0 when not given)."""
     out = {}
-    for name, (x, t, v) in stations.items():
+    for name, (x, t, v, *width) in stations.items():
         t = np.asarray(t, dtype=np.float64)
-        tr = rupture_times(t, np.asarray(v, dtype=np.float64)[:, None], threshold)[0] if len(t) else math.nan
+        w = float(width[0]) if width else 0.0
+        tr = rupture_times(t, np.asarray(v, dtype=np.float64)[:, None], threshold, width=w)[0] if len(t) else math.nan
         out[name] = (float(x), float(tr))
     return out
 
 
 def diagnose(times, x1, slip_rate, speeds: dict, *, threshold: float = THRESHOLD, stations=None,
-             struck: bool = False, npts: int = NPTS, slip=None) -> dict | None:
+             struck: bool = False, npts: int = NPTS, slip=None, width: float = 0.0) -> dict | None:
     """summary.json's ``rupture`` block, or None for a run struck at x1 = 0 whose
     sliding starts there (the impact's own diagnostics apply: tip, fronts, mode).
 
     times float64[n_t] [s], x1 float64[n_p] [m] (sorted), slip_rate float64[n_t,
     n_p] [m/s], speeds the reference wave speeds (:func:`fricfem.analysis.speeds.check_speeds`),
-    stations {name: (x1, time, slip_rate)} every step (optional), struck: the
+    stations {name: (x1, time, slip_rate[, width])} every step (optional), struck: the
     scene has an impact on the edge x1 = 0, slip float64[n_t, n_p] [m] (optional:
-    :func:`rupture_times`)."""
+    :func:`rupture_times`), width [s] the interval each rate row is the mean over
+    (:func:`step_width`)."""
     sp = check_speeds(speeds)
     x1 = np.asarray(x1, dtype=np.float64)
     t = np.asarray(times, dtype=np.float64)
-    t_r = rupture_times(t, slip_rate, threshold, slip)
+    t_r = rupture_times(t, slip_rate, threshold, slip, width)
     row = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     nuc = nucleation(x1, t_r, patch_tol=row)
     spacing = float(np.median(np.diff(x1))) if len(x1) > 1 else 0.0
@@ -293,9 +320,10 @@ def from_run(rundir, threshold: float | None = None) -> dict:
             return {}
         speeds = {k: float(itf.attrs[k]) for k in ("c_R", "c_s", "sqrt2_c_s", "c_l")}
         struck = float(itf.attrs.get("v_imp", 0.0)) != 0.0
-        # each at the time its rows hold (the rigid kind's slip rate: t^{n+½}; InterfaceFile.time_of)
-        stations = {n: (s.x1, s.time_of("slip_rate"), s.data["slip_rate"]) for n, s in itf.stations().items()
-                    if "slip_rate" in s.data}
+        # each at the time its rows hold (the rigid kind's slip rate: t^{n+½}, its step's mean; InterfaceFile.time_of)
+        stations = {n: (s.x1, s.time_of("slip_rate"), s.data["slip_rate"], step_width(s.shift.get("slip_rate", 0.0)))
+                    for n, s in itf.stations().items() if "slip_rate" in s.data}
         block = diagnose(itf.time_of("slip_rate"), itf.x1, itf.all("slip_rate"), speeds, threshold=threshold,
-                         stations=stations, struck=struck, slip=itf.all("slip") if itf.has("slip") else None)
+                         stations=stations, struck=struck, slip=itf.all("slip") if itf.has("slip") else None,
+                         width=step_width(itf.time_of("slip_rate")[0] - itf.time[0]) if itf.n_time else 0.0)
     return {} if block is None else {"rupture": block}
