@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..output.rundir import open_run
+from ..output.rundir import open_interface, open_run
+from .rupture import station_times, step_width
 
 RUPTURE_THRESHOLD = 1e-3  # m/s: a station has ruptured once Δu̇_slip exceeds this
 
@@ -31,19 +32,28 @@ def record(rundir, scene=None) -> dict:
         "h_m": scene.mesh.dx if scene is not None else None, "wall_loop_s": wall.get("time_loop"),
         "wall_total_s": wall.get("total"), "us_per_step": s.get("us_per_step"), "t_end_s": s.get("t_end_s"),
         "speeds": s.get("speeds"),
-        "stations": {name: {"x1": float(st["x1"]), "t": st["time"], "v": st["slip_rate"]}
-                     for name, st in r.stations.items()},
+        "stations": _stations(rundir),
         "tip_t": np.asarray(tip["time_s"], dtype=float), "tip_x": np.asarray(tip["x1_m"], dtype=float),
     }
 
 
+def _stations(rundir) -> dict:
+    """{name: {"x1", "t", "v", "width"}}: each station's slip rate [m/s] at the times it
+    holds (the rigid kind's step rate V^{n+½} at t^{n+½}: ``Station.time_of``) and the
+    interval each sample is the mean over (:func:`fricfem.analysis.rupture.step_width`)."""
+    with open_interface(Path(rundir)) as itf:
+        return {name: {"x1": float(st.x1), "t": st.time_of("slip_rate"), "v": st.data["slip_rate"],
+                       "width": step_width(st.shift.get("slip_rate", 0.0))}
+                for name, st in itf.stations().items() if "slip_rate" in st.data}
+
+
 def rupture_times(rec: dict, threshold: float = RUPTURE_THRESHOLD) -> dict:
-    """Station name -> first time Δu̇_slip > ``threshold`` [s] (NaN if never)."""
-    out = {}
-    for name, s in rec["stations"].items():
-        k = np.flatnonzero(s["v"] > threshold)
-        out[name] = float(s["t"][k[0]]) if len(k) else float("nan")
-    return out
+    """Station name -> the first time Δu̇_slip reaches ``threshold`` [s], interpolated
+    between samples as the summary's (:func:`fricfem.analysis.rupture.station_times`:
+    a step rate out of stick from where its stuck step ended); NaN if never."""
+    st = station_times({name: (s["x1"], s["t"], s["v"], s.get("width", 0.0))
+                        for name, s in rec["stations"].items()}, threshold)
+    return {name: tr for name, (_, tr) in st.items()}
 
 
 def station_l2(rec: dict, ref: dict) -> float:
