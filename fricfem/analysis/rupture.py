@@ -89,7 +89,7 @@ def rupture_times(times, slip_rate, threshold: float = THRESHOLD, slip=None, wid
     step rates every step this is what the peer's reading of its whole-step rates
     gives, the crossing at about the last time known to stick; on tpv205_2d (degree
     4, 1 mm) it halves the change of the rupture times between dt_safety 0.9 and
-    0.1125 (44 → 26 ns worst; docs/interface_kinds.md)."""
+    0.1125 (44 → 26 ns worst; docs/elements.md, "Reading a rupture time")."""
     t = np.asarray(times, dtype=np.float64)
     v = np.abs(np.asarray(slip_rate, dtype=np.float64))
     if v.ndim != 2 or v.shape[0] != t.size:
