@@ -26,8 +26,10 @@
 #   from the reference's initiation to the end (before a run's own initiation
 #   its front is taken at the point where it starts);
 # - ``rupture_time_us``: the rupture time at a station, the first time
-#   Δu̇_slip > 1 mm/s, max |t_r − t_r,ref| over the stations (a station that
-#   breaks in one run but not the other counts as the time to the end).
+#   Δu̇_slip reaches 1 mm/s, interpolated between steps as the summary's
+#   (fricfem.analysis.convergence.rupture_times), max |t_r − t_r,ref| over the
+#   stations (a station that breaks in one run but not the other counts as the
+#   time to the end).
 #
 # The observed order is the slope of log(error) against log(h), h the cell
 # size along the interface, over the levels coarser than the reference, for
