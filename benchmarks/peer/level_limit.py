@@ -1,7 +1,8 @@
 """A level of the peer in its own dt -> 0 limit: SEM2DPACK (built from its public
 source, outside this tree) on one of its committed meshes at Courant 0.5 and
 0.25, extrapolated to dt -> 0 at first order (its rate-and-state fault's
-observed order, dt_order.md), and its reference (p8_h0.0625mm) likewise; with
+observed order, dt_order.md), and its reference (p8_h0.0625mm) likewise
+(ref_dt.extrapolated: its committed run and peer_dt.py's run at C/2); with
 ``--fricfem``, fricfem on the same mesh (degree-4 elements of the label's
 element size over the whole box, sem_ladder.layout, at dt_safety 0.45).
 
@@ -27,6 +28,7 @@ import peer_dt
 import score
 import sem_ladder
 from make_par import GEOMETRY
+from ref_dt import extrapolated, first_order_limit
 
 RESULT = score.RESULTS / "level_limit.json"
 COURANT = 0.5
@@ -35,30 +37,23 @@ SAFETY = 0.45
 ELEMENT = {"h0.25mm": 1e-3, "h0.1mm": 0.4e-3, "h0.05mm": 0.2e-3}
 
 
-def limit(a: float, b: float) -> float:
-    """First-order extrapolation to dt -> 0 from the step and its half."""
-    return 2.0 * b - a
-
-
 def level(problem: str, label: str, base: Path, fricfem: bool) -> dict:
-    reference = score.peer_metrics(problem, score.reference(problem))
-    ref = reference["stations"]
+    ref, _, ref_limit = extrapolated(problem, base)  # the reference as scored, at C/2, and its dt -> 0 limit
     peer = [peer_dt.stations(problem, peer_dt.run(problem, label, c, base)) for c in (COURANT, COURANT / 2)]
-    refs = [peer_dt.stations(problem, peer_dt.run(problem, score.REFERENCE, c, base)) for c in (COURANT, COURANT / 2)]
     fric = rec = None
     if fricfem:
         h = ELEMENT[label]
         d = sem_ladder.rundir(score.ROOT / "runs" / "sem", problem, 4, h, True, SAFETY)
         rec = score.run_fricfem(problem, "rigid", h, d, 1, None, extra=sem_ladder.layout(4, h, True, SAFETY))
-        fric = score.run_metrics(d, "rigid", sorted(ref), reference["end_s"])
+        fric = score.run_metrics(d, "rigid", sorted(ref), score.peer_metrics(problem, score.REFERENCE)["end_s"])
     rows = []
     for x, r in sorted(ref.items()):
         t = r["t_r"]
         if t is None or t <= score.T_R_MIN or peer[0][x]["t_r"] is None or peer[1][x]["t_r"] is None:
             continue
         row = {"x_mm": x, "t_r_ref_s": t, "peer_s": peer[0][x]["t_r"],
-               "peer_limit_s": limit(peer[0][x]["t_r"], peer[1][x]["t_r"]),
-               "ref_limit_s": limit(refs[0][x]["t_r"], refs[1][x]["t_r"])}
+               "peer_limit_s": first_order_limit(peer[0][x]["t_r"], peer[1][x]["t_r"]),
+               "ref_limit_s": ref_limit[x]["t_r"]}
         if fric is not None and fric[x]["t_r"] is not None:
             row["fricfem_s"] = fric[x]["t_r"]
         rows.append(row)

@@ -24,6 +24,11 @@ RESULT = score.RESULTS / "ref_dt.json"
 TAGS = ("serial", "p4-serial", "p6-serial", "p4-dt0.45-serial")
 
 
+def first_order_limit(at_c: float, at_half: float) -> float:
+    """t_0 = 2 t(C/2) − t(C): a first-order quantity extrapolated to dt -> 0 from the step and its half."""
+    return 2.0 * at_half - at_c
+
+
 def extrapolated(problem: str, base: Path) -> tuple:
     """(the reference's stations, the C/2 run's, the dt -> 0 extrapolation's), {x_mm: {t_r, slip, v_peak}}."""
     ref = score.peer_metrics(problem, score.REFERENCE)["stations"]
@@ -31,8 +36,8 @@ def extrapolated(problem: str, base: Path) -> tuple:
     ex = {}
     for x, r in ref.items():
         h = half[x]
-        t = None if r["t_r"] is None or h["t_r"] is None else 2.0 * h["t_r"] - r["t_r"]
-        ex[x] = {"t_r": t, "slip": 2.0 * h["slip"] - r["slip"], "v_peak": r["v_peak"]}
+        t = None if r["t_r"] is None or h["t_r"] is None else first_order_limit(r["t_r"], h["t_r"])
+        ex[x] = {"t_r": t, "slip": first_order_limit(r["slip"], h["slip"]), "v_peak": r["v_peak"]}
     return ref, half, ex
 
 
