@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..output.rundir import open_interface, open_run
-from .rupture import station_times, step_width
+from .rupture import station_histories, station_times
 
 RUPTURE_THRESHOLD = 1e-3  # m/s: a station has ruptured once Δu̇_slip exceeds this
 
@@ -39,12 +39,11 @@ def record(rundir, scene=None) -> dict:
 
 def _stations(rundir) -> dict:
     """{name: {"x1", "t", "v", "width"}}: each station's slip rate [m/s] at the times it
-    holds (the rigid kind's step rate V^{n+½} at t^{n+½}: ``Station.time_of``) and the
-    interval each sample is the mean over (:func:`fricfem.analysis.rupture.step_width`)."""
+    holds and the interval each sample is the mean over
+    (:func:`fricfem.analysis.rupture.station_histories`)."""
     with open_interface(Path(rundir)) as itf:
-        return {name: {"x1": float(st.x1), "t": st.time_of("slip_rate"), "v": st.data["slip_rate"],
-                       "width": step_width(st.shift.get("slip_rate", 0.0))}
-                for name, st in itf.stations().items() if "slip_rate" in st.data}
+        return {name: {"x1": float(x), "t": t, "v": v, "width": w}
+                for name, (x, t, v, w) in station_histories(itf).items()}
 
 
 def rupture_times(rec: dict, threshold: float = RUPTURE_THRESHOLD) -> dict:

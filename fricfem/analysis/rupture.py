@@ -228,6 +228,15 @@ def station_times(stations: dict, threshold: float = THRESHOLD) -> dict:
     return out
 
 
+def station_histories(itf) -> dict:
+    """{name: (x1 [m], time [s], slip_rate [m/s], width [s])} of an open interface file's
+    stations that record a slip rate: each rate at the times it holds (``Station.time_of``:
+    the rigid kind's V^{n+½} at t^{n+½}) with the interval it is the mean over
+    (:func:`step_width`), as :func:`station_times` takes them."""
+    return {n: (s.x1, s.time_of("slip_rate"), s.data["slip_rate"], step_width(s.shift.get("slip_rate", 0.0)))
+            for n, s in itf.stations().items() if "slip_rate" in s.data}
+
+
 def diagnose(times, x1, slip_rate, speeds: dict, *, threshold: float = THRESHOLD, stations=None,
              struck: bool = False, npts: int = NPTS, slip=None, width: float = 0.0) -> dict | None:
     """summary.json's ``rupture`` block, or None for a run struck at x1 = 0 whose
@@ -321,9 +330,7 @@ def from_run(rundir, threshold: float | None = None) -> dict:
         speeds = {k: float(itf.attrs[k]) for k in ("c_R", "c_s", "sqrt2_c_s", "c_l")}
         struck = float(itf.attrs.get("v_imp", 0.0)) != 0.0
         # each at the time its rows hold (the rigid kind's slip rate: t^{n+½}, its step's mean; InterfaceFile.time_of)
-        stations = {n: (s.x1, s.time_of("slip_rate"), s.data["slip_rate"], step_width(s.shift.get("slip_rate", 0.0)))
-                    for n, s in itf.stations().items() if "slip_rate" in s.data}
         block = diagnose(itf.time_of("slip_rate"), itf.x1, itf.all("slip_rate"), speeds, threshold=threshold,
-                         stations=stations, struck=struck, slip=itf.all("slip") if itf.has("slip") else None,
+                         stations=station_histories(itf), struck=struck, slip=itf.all("slip") if itf.has("slip") else None,
                          width=step_width(itf.time_of("slip_rate")[0] - itf.time[0]) if itf.n_time else 0.0)
     return {} if block is None else {"rupture": block}
