@@ -121,6 +121,8 @@ def _summary(scene: Scene, pm, model, comm) -> dict:
         "interface_points": int(comm.allreduce(len(model.interface.geometry.x1))),
         "dt_s": model.dt, "dt_crit_s": model.dt_crit, "steps": 0, "t_end_s": scene.t_end,
         "speeds": scene.material.speeds(), "input": scene.raw,
+        # the scale and mesh checks that warned but did not refuse the scene (printed on stderr too)
+        "warnings": list(scene.warnings),
         # what fricfem plot needs for the isochromatic frames (output.frames, thickness, f_sigma)
         "photoelastic": {"thickness_m": scene.output.thickness, "f_sigma_N_per_m": scene.output.f_sigma,
                          "frames_s": frame_times(scene.output.frames)},

@@ -129,10 +129,11 @@ def issue26_md(prob: dict) -> list:
                      + f" % at h = " + " → ".join(f"{h * 1e3:g}" for h, _ in pts) + " mm; orders "
                      + ", ".join(f"{o:.2f}" for o in orders) + f"; {'monotone' if mono else 'not monotone'} — "
                      + ("**met**" if met else "**not met**"))
-            if len(pts) >= 3:  # self-convergence: free of the reference's own error
-                diffs = [_worst_change(r0, r1) for (_, r0), (_, r1) in zip(pts, pts[1:])]
+            halving = _halving(pts)
+            if len(halving) >= 3:  # self-convergence: free of the reference's own error
+                diffs = [_worst_change(r0, r1) for (_, r0), (_, r1) in zip(halving, halving[1:])]
                 own = [math.log(d0 / d1) / math.log(h0 / h1) for d0, d1, (h0, _), (h1, _)
-                       in zip(diffs, diffs[1:], pts, pts[1:])]
+                       in zip(diffs, diffs[1:], halving, halving[1:])]
                 L.append(f"- fricfem{_name(tag)} {kind}, its own ladder (worst |t_r(h) − t_r(h/2)| over the stations, "
                          f"free of the reference's error): " + " → ".join(f"{d:.3f}" for d in diffs) + " µs; orders "
                          + ", ".join(f"{o:.2f}" for o in own))
@@ -143,6 +144,16 @@ def issue26_md(prob: dict) -> list:
                          + ("**met**" if all(r["slip_pct"] <= GOAL_SLIP_WHERE_TR[1] for _, r in acc)
                             else "**not met**"))
     return L + [""]
+
+
+def _halving(pts: list) -> list:
+    """The runs of an h ladder (coarse to fine) that halve h from the finest up: the
+    self-convergence differences t_r(h) − t_r(h/2) need exact halvings."""
+    chain = pts[-1:]
+    for h, r in reversed(pts[:-1]):
+        if math.isclose(h, 2 * chain[-1][0], rel_tol=1e-9):
+            chain.append((h, r))
+    return chain[::-1]
 
 
 def _worst_change(r0: dict, r1: dict) -> float:
