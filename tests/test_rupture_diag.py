@@ -233,6 +233,30 @@ def test_peer_scene_rupture_times_match_the_stations_own_crossings(peer_run):
     assert outward and all(0 < s["v_r_m_s"] < SPEEDS["c_l"] for s in outward)
 
 
+def test_compare_reads_the_stations_at_the_times_their_rates_hold(peer_run):
+    """``fricfem compare``'s rupture and peak times of a rigid run are those of the slip
+    rate's own times (V^{n+½} at t^{n+½}: interface.h5's time_shift_s), as the summary's."""
+    from fricfem.analysis import compare
+
+    name, out = peer_run
+    if RANK:
+        return
+    cmp = compare.compare(out, out)
+    with open_interface(out) as itf:
+        histories = itf.stations()
+    summary = {s["name"]: s["time_s"] for s in json.loads((out / "summary.json").read_text())["rupture"]["stations"]}
+    shifted = 0
+    for row in cmp["stations"]:
+        h = histories[row["name"]]
+        k = int(np.argmax(h.data["slip_rate"]))
+        assert row["a"]["peak_time_s"] == h.time_of("slip_rate")[k]
+        shifted += h.time_of("slip_rate")[k] != h.time[k]
+        expect = summary[row["name"]]
+        got = row["a"]["rupture_time_s"]
+        assert (expect is None and math.isnan(got)) or got == pytest.approx(expect, rel=0, abs=1e-15), (row, expect)
+    assert shifted == len(cmp["stations"]) > 0  # both peer scenes are rigid: every rate holds at t^{n+½}
+
+
 def test_spacetime_draws_the_rupture_time_front(peer_run, tmp_path, monkeypatch):
     """Figure data: the drawn t_r line is the summary's field, the star its nucleation."""
     name, out = peer_run

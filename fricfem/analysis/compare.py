@@ -37,14 +37,15 @@ def compare(run_a, run_b, threshold: float = conv.RUPTURE_THRESHOLD) -> dict:
                          f"B has {', '.join(rb.stations) or 'none'}); stations are output.stations of the scene")
     tr_a, tr_b = conv.rupture_times(rec_a, threshold), conv.rupture_times(rec_b, threshold)
 
-    def side(run, name, tr):
+    def side(run, rec, name, tr):
         st = run.stations[name]
         slip = st.get("slip", np.zeros(0))
-        v = st.get("slip_rate", np.zeros(0))
+        # the slip rate against the times it holds (a rigid pair's: t^{n+½}; the record's ``t``)
+        t_v, v = rec["stations"][name]["t"], rec["stations"][name]["v"]
         k = int(np.argmax(v)) if len(v) else None
         return {"rupture_time_s": tr[name], "final_slip_m": float(slip[-1]) if len(slip) else math.nan,
                 "peak_slip_rate_m_s": float(v[k]) if k is not None else math.nan,
-                "peak_time_s": float(st["time"][k]) if k is not None else math.nan,
+                "peak_time_s": float(t_v[k]) if k is not None else math.nan,
                 "t_last_s": float(st["time"][-1]) if len(st["time"]) else math.nan}
 
     rows = []
@@ -53,7 +54,7 @@ def compare(run_a, run_b, threshold: float = conv.RUPTURE_THRESHOLD) -> dict:
         one_b = {**rec_b, "stations": {name: rec_b["stations"][name]}}
         rows.append({"name": name, "x1_m": float(rb.stations[name]["x1"]),
                      "x1_a_m": float(ra.stations[name]["x1"]),
-                     "a": side(ra, name, tr_a), "b": side(rb, name, tr_b),
+                     "a": side(ra, rec_a, name, tr_a), "b": side(rb, rec_b, name, tr_b),
                      "l2_rel": conv.station_l2(one_a, one_b)})
 
     def tip(run):
