@@ -18,7 +18,7 @@ import pytest
 from fricfem.kernels.sem import element_ku
 from fricfem.model import sem
 
-DEGREES = (2, 3, 4, 5, 6)
+DEGREES = sem.DEGREES
 # element edges [m]: every element another width and height (hx/hy from 0.3 to 3)
 EDGES_X = np.cumsum([0.0, 1.0e-3, 1.3e-3, 0.7e-3, 1.9e-3])
 EDGES_Y = np.cumsum([0.0, 0.8e-3, 1.5e-3, 0.6e-3])
@@ -181,15 +181,16 @@ def test_gathered_nodes_and_numbering_keep_a_nodes_bits(p):
 
 def test_gll_points_are_basix_gll_warped():
     """sem.gll's points are the nodes of basix's gll_warped Lagrange element on an
-    interval (mapped from [0, 1] to [−1, 1]) to 4e-16, p = 2 to 6; its weights
-    integrate x^k exactly to degree 2p − 1."""
+    interval (mapped from [0, 1] to [−1, 1]) to 4e-16 for p = 2 to 7, 6e-16 at p = 8, where basix's
+    are the ones off: against the roots of P_8' to 40 digits (mpmath), sem.gll is within 5.6e-17 and
+    basix within 5.6e-16 (its [0, 1] points mapped); its weights integrate x^k exactly to degree 2p − 1."""
     basix = pytest.importorskip("basix")
     for p in DEGREES:
         e = basix.create_element(basix.ElementFamily.P, basix.CellType.interval, p,
                                  basix.LagrangeVariant.gll_warped)
         pts = np.sort(2.0 * np.asarray(e.points)[:, 0] - 1.0)
         x, w = sem.gll(p)
-        assert np.abs(pts - x).max() <= 4e-16, p
+        assert np.abs(pts - x).max() <= (6e-16 if p == 8 else 4e-16), p
         for k in range(2 * p):
             assert math.isclose(float(w @ x**k), (1 - (-1) ** (k + 1)) / (k + 1), abs_tol=2e-15), (p, k)
 
@@ -204,7 +205,7 @@ def test_benchmark_smoke(tmp_path):
     out = tmp_path / "sem_operator"
     doc = sem_operator.main(["--side", "60", "--repeats", "1", "--budget", "0.001", "--callgrind-side", "0",
                              "--out", str(out)])
-    assert [r["p"] for r in doc["rows"]] == list(DEGREES)
+    assert [r["p"] for r in doc["rows"]] == list(sem_operator.TABLE_DEGREES)
     for r in doc["rows"]:
         assert r["nodes"] == 61 * 61 and r["elements"] == (60 // r["p"]) ** 2
         diff = r["max_rel_diff_to_aij"]

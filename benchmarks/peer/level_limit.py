@@ -3,8 +3,8 @@ source, outside this tree) on one of its committed meshes at Courant 0.5 and
 0.25, extrapolated to dt -> 0 at first order (its rate-and-state fault's
 observed order, dt_order.md), and its reference (p8_h0.0625mm) likewise
 (ref_dt.extrapolated: its committed run and peer_dt.py's run at C/2); with
-``--fricfem``, fricfem on the same mesh (degree-4 elements of the label's
-element size over the whole box, sem_ladder.layout, at dt_safety 0.45).
+``--fricfem``, fricfem on the same mesh (elements of the label's size and
+degree over the whole box, sem_ladder.layout, at dt_safety 0.45).
 
 Per station, rupture times against the reference as it is [µs]: the peer's
 level as scored (Courant 0.5), its limit, the reference's limit and fricfem's
@@ -33,8 +33,8 @@ from ref_dt import extrapolated, first_order_limit
 RESULT = score.RESULTS / "level_limit.json"
 COURANT = 0.5
 SAFETY = 0.45
-#: each peer label's element size [m] (degree 4: four node spacings; make_par.py)
-ELEMENT = {"h0.25mm": 1e-3, "h0.1mm": 0.4e-3, "h0.05mm": 0.2e-3}
+#: each peer label's element size [m] and degree (make_par.py: h is the mean node spacing)
+ELEMENT = {"h0.25mm": (1e-3, 4), "h0.1mm": (0.4e-3, 4), "h0.05mm": (0.2e-3, 4), "p8_h0.125mm": (1e-3, 8)}
 
 
 def level(problem: str, label: str, base: Path, fricfem: bool) -> dict:
@@ -42,9 +42,9 @@ def level(problem: str, label: str, base: Path, fricfem: bool) -> dict:
     peer = [peer_dt.stations(problem, peer_dt.run(problem, label, c, base)) for c in (COURANT, COURANT / 2)]
     fric = rec = None
     if fricfem:
-        h = ELEMENT[label]
-        d = sem_ladder.rundir(score.ROOT / "runs" / "sem", problem, 4, h, True, SAFETY)
-        rec = score.run_fricfem(problem, "rigid", h, d, 1, None, extra=sem_ladder.layout(4, h, True, SAFETY))
+        h, p = ELEMENT[label]
+        d = sem_ladder.rundir(score.ROOT / "runs" / "sem", problem, p, h, True, SAFETY)
+        rec = score.run_fricfem(problem, "rigid", h, d, 1, None, extra=sem_ladder.layout(p, h, True, SAFETY))
         fric = score.run_metrics(d, "rigid", sorted(ref), score.peer_metrics(problem, score.REFERENCE)["end_s"])
     rows = []
     for x, r in sorted(ref.items()):
@@ -63,7 +63,8 @@ def level(problem: str, label: str, base: Path, fricfem: bool) -> dict:
             worst[key] = {"ref_pct": 100 * max(abs(r[key] - r["t_r_ref_s"]) / r["t_r_ref_s"] for r in rows),
                           "ref_limit_pct": 100 * max(abs(r[key] - r["ref_limit_s"]) / r["t_r_ref_s"] for r in rows)}
     return {"problem": problem, "label": label, "courant": [COURANT, COURANT / 2],
-            "fricfem": None if rec is None else {"degree": 4, "h_m": ELEMENT[label], "dt_safety": SAFETY,
+            "fricfem": None if rec is None else {"degree": ELEMENT[label][1], "h_m": ELEMENT[label][0],
+                                                 "dt_safety": SAFETY,
                                                  "cpu_s": rec["cpu_s"], "dt_s": rec["dt_s"]},
             "stations": rows, "worst": worst}
 
@@ -76,7 +77,7 @@ def table(doc: dict) -> str:
     for r in sorted(doc["runs"].values(), key=lambda r: (r["problem"], r["label"])):
         f = r["fricfem"]
         lines += [f"## {r['problem']} {r['label']}", "",
-                  ("fricfem: degree 4, " + f"{f['h_m'] * 1e3:g} mm elements over the whole box, dt_safety "
+                  (f"fricfem: degree {f['degree']}, " + f"{f['h_m'] * 1e3:g} mm elements over the whole box, dt_safety "
                    f"{f['dt_safety']:g}, {f['cpu_s']:.1f} CPU s." if f else "fricfem: not run on this mesh."), "",
                   "| x [mm] | peer, Courant 0.5 | peer, dt → 0 | reference, dt → 0 | fricfem |",
                   "|---|---|---|---|---|"]
@@ -98,7 +99,7 @@ def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problem", default="rsf_aging_2d", choices=sorted(GEOMETRY))
     ap.add_argument("--label", nargs="+", default=["h0.1mm"], choices=sorted(ELEMENT))
-    ap.add_argument("--fricfem", action="store_true", help="fricfem on the same mesh too (degree 4, whole box)")
+    ap.add_argument("--fricfem", action="store_true", help="fricfem on the same mesh too (its degree, whole box)")
     ap.add_argument("--base", default="/var/tmp/fricfem-peer-dt")
     args = ap.parse_args(argv)
     peer_dt.need_peer()

@@ -333,7 +333,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--kinds", nargs="+", default=["rigid", "elastic"], choices=["rigid", "elastic"])
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--degree", type=int, default=1,
-                    help="mesh.degree (2-6: spectral elements, rigid kind; --h the element size)")
+                    help="mesh.degree (2-8: spectral elements, rigid kind; --h the element size)")
     ap.add_argument("--safety", type=float, default=0.9,
                     help="time.dt_safety of the spectral runs (sem_ladder.py makes 0.9 and 0.45)")
     ap.add_argument("--uniform", action="store_true",

@@ -147,8 +147,18 @@ def _ku6(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
     _element_ku(nodes, hx, hy, lmbda, mu, D, w, 7, u, ug, n_owned, f, scratch)
 
 
+@numba.njit(cache=True, _nrt=False)
+def _ku7(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
+    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 8, u, ug, n_owned, f, scratch)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _ku8(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
+    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 9, u, ug, n_owned, f, scratch)
+
+
 #: The kernel of each degree p: ``KERNELS[p](nodes, hx, hy, λ, μ, D, w, u, ug, n_owned, f, scratch)``.
-KERNELS = {2: _ku2, 3: _ku3, 4: _ku4, 5: _ku5, 6: _ku6}
+KERNELS = {2: _ku2, 3: _ku3, 4: _ku4, 5: _ku5, 6: _ku6, 7: _ku7, 8: _ku8}
 
 
 def element_ku(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):

@@ -39,7 +39,7 @@ class MeshSpec:
     impact_b: float = field(0.025, "m", 0.0, 10.0, "struck edge segment x1 = 0, |x2| <= b", open_low=True)
     grading: float = field(1.15, "", 1.0, 2.0, "cell-size growth ratio outside the fine region")
     max_size: float = field(5.0e-3, "m", 0.0, 10.0, "largest cell size", open_low=True)
-    degree: int = field(1, "", 1, 6, "element degree: 1 the paper's crossed linear triangles; 2 to 6 spectral "
+    degree: int = field(1, "", 1, 8, "element degree: 1 the paper's crossed linear triangles; 2 to 8 spectral "
                         "elements (Q_p on the cells, nodes and quadrature at the GLL points; dx, dy the "
                         "element size)", kind=int)
 

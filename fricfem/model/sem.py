@@ -1,5 +1,5 @@
 """Spectral elements: Q_p Lagrange on the grid's rectangles with the nodes at the
-Gauss–Lobatto–Legendre (GLL) points and GLL quadrature (``mesh.degree`` 2 to 6).
+Gauss–Lobatto–Legendre (GLL) points and GLL quadrature (``mesh.degree`` 2 to 8).
 
 On a GLL lattice the quadrature points are the nodes, so the mass integrated by
 it is exactly diagonal (no lumping), and the element stiffness of an
@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 #: Degrees of the spectral elements (``mesh.degree``; 1 is the paper's crossed P1 triangles).
-DEGREES = (2, 3, 4, 5, 6)
+DEGREES = (2, 3, 4, 5, 6, 7, 8)
 
 
 def _legendre(n: int, x: float) -> tuple:
