@@ -119,46 +119,20 @@ def _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch):
                 f[2 * a + 1] += f1
 
 
-# One kernel a degree: the body inlined with p + 1 a constant, so that LLVM unrolls the
-# loops over an element's lines (1.6x faster than one kernel for all degrees: 19 against
-# 30 ns a node at p = 4, benchmarks/sem_operator.py).
-@numba.njit(cache=True, _nrt=False)
-def _ku2(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 3, u, ug, n_owned, f, scratch)
+# One kernel a degree: the body inlined with p + 1 a constant (the closure's ``n1``, which
+# numba compiles as a constant and keys its disk cache on), so that LLVM unrolls the loops
+# over an element's lines (1.6x faster than one kernel for all degrees: 19 against 30 ns a
+# node at p = 4, benchmarks/sem_operator.py).
+def _kernel_of_degree(n1: int):
+    @numba.njit(cache=True, _nrt=False)
+    def ku(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
+        _element_ku(nodes, hx, hy, lmbda, mu, D, w, n1, u, ug, n_owned, f, scratch)
 
-
-@numba.njit(cache=True, _nrt=False)
-def _ku3(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 4, u, ug, n_owned, f, scratch)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _ku4(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 5, u, ug, n_owned, f, scratch)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _ku5(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 6, u, ug, n_owned, f, scratch)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _ku6(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 7, u, ug, n_owned, f, scratch)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _ku7(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 8, u, ug, n_owned, f, scratch)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _ku8(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
-    _element_ku(nodes, hx, hy, lmbda, mu, D, w, 9, u, ug, n_owned, f, scratch)
+    return ku
 
 
 #: The kernel of each degree p: ``KERNELS[p](nodes, hx, hy, λ, μ, D, w, u, ug, n_owned, f, scratch)``.
-KERNELS = {2: _ku2, 3: _ku3, 4: _ku4, 5: _ku5, 6: _ku6, 7: _ku7, 8: _ku8}
+KERNELS = {p: _kernel_of_degree(p + 1) for p in range(2, 9)}
 
 
 def element_ku(nodes, hx, hy, lmbda, mu, D, w, u, ug, n_owned, f, scratch):
