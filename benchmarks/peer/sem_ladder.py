@@ -118,6 +118,8 @@ def main(argv=None) -> dict:
                     "the scene's)")
     ap.add_argument("--rerun", action="store_true", help="run again even where a complete run is there")
     args = ap.parse_args(argv)
+    if args.uniform and (args.coarse or args.grading):
+        ap.error("--coarse and --grading shape the band's grading; --uniform has none")
     doc = score.load_results(RESULT)
     for p in args.p:
         for h in args.h:
